@@ -1,0 +1,109 @@
+!> Small string helpers: number formatting for messages, case folding, paths.
+module string_utils
+  use kinds, only: dp, i8
+  implicit none
+  private
+  public :: str, lower, dirname, join_path, is_absolute_path, starts_with, ends_with
+
+  interface str
+    module procedure str_int, str_int8, str_real, str_logical
+  end interface str
+
+contains
+
+  pure function str_int(value) result(text)
+    integer, intent(in) :: value
+    character(len=:), allocatable :: text
+    character(len=32) :: buffer
+    write (buffer, '(i0)') value
+    text = trim(buffer)
+  end function str_int
+
+  pure function str_int8(value) result(text)
+    integer(i8), intent(in) :: value
+    character(len=:), allocatable :: text
+    character(len=32) :: buffer
+    write (buffer, '(i0)') value
+    text = trim(buffer)
+  end function str_int8
+
+  !> Shortest round-trip-ish form for messages: 'g0' keeps all significant digits.
+  pure function str_real(value, fmt) result(text)
+    real(dp), intent(in) :: value
+    character(len=*), intent(in), optional :: fmt
+    character(len=:), allocatable :: text
+    character(len=64) :: buffer
+    if (present(fmt)) then
+      write (buffer, fmt) value
+    else
+      write (buffer, '(g0)') value
+    end if
+    text = trim(adjustl(buffer))
+  end function str_real
+
+  pure function str_logical(value) result(text)
+    logical, intent(in) :: value
+    character(len=:), allocatable :: text
+    if (value) then
+      text = '.true.'
+    else
+      text = '.false.'
+    end if
+  end function str_logical
+
+  pure function lower(text) result(folded)
+    character(len=*), intent(in) :: text
+    character(len=len(text)) :: folded
+    integer :: i, c
+    folded = text
+    do i = 1, len(text)
+      c = iachar(text(i:i))
+      if (c >= iachar('A') .and. c <= iachar('Z')) folded(i:i) = achar(c + 32)
+    end do
+  end function lower
+
+  pure logical function starts_with(text, prefix)
+    character(len=*), intent(in) :: text, prefix
+    starts_with = len(text) >= len(prefix)
+    if (starts_with) starts_with = text(1:len(prefix)) == prefix
+  end function starts_with
+
+  pure logical function ends_with(text, suffix)
+    character(len=*), intent(in) :: text, suffix
+    ends_with = len(text) >= len(suffix)
+    if (ends_with) ends_with = text(len(text) - len(suffix) + 1:) == suffix
+  end function ends_with
+
+  pure logical function is_absolute_path(path)
+    character(len=*), intent(in) :: path
+    is_absolute_path = .false.
+    if (len_trim(path) > 0) is_absolute_path = path(1:1) == '/'
+  end function is_absolute_path
+
+  !> Folder part of a path ('.' when there is none).
+  pure function dirname(path) result(dir)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: dir
+    integer :: slash
+    slash = index(trim(path), '/', back=.true.)
+    if (slash == 0) then
+      dir = '.'
+    else if (slash == 1) then
+      dir = '/'
+    else
+      dir = path(1:slash - 1)
+    end if
+  end function dirname
+
+  !> base/relative unless relative is absolute.
+  pure function join_path(base, relative) result(path)
+    character(len=*), intent(in) :: base, relative
+    character(len=:), allocatable :: path
+    if (is_absolute_path(relative) .or. len_trim(base) == 0 .or. trim(base) == '.') then
+      path = trim(relative)
+    else
+      path = trim(base)//'/'//trim(relative)
+    end if
+  end function join_path
+
+end module string_utils

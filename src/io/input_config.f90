@@ -1,0 +1,80 @@
+!> The validated input of a run, apart from how it was read: deck_reader fills it from a
+!> namelist deck, tests and tools can build it directly. Units in brackets. Defaults here
+!> are the documented ones (docs/input.md); a negative value marked "auto" is replaced by a
+!> value derived from the bodies when the run is set up.
+module input_config
+  use kinds, only: dp
+  use constants, only: name_length, path_length
+  implicit none
+  private
+  public :: run_config_t, integrator_config_t, contact_config_t, output_config_t, body_spec_t, &
+            deck_t, ROTATION_NEWMARK, ROTATION_EXACT
+
+  character(len=*), parameter :: ROTATION_NEWMARK = 'newmark'
+  character(len=*), parameter :: ROTATION_EXACT = 'exact'
+
+  type :: run_config_t
+    character(len=256) :: title = 'ricochet run'
+    real(dp) :: t_end = -1.0_dp              !< [s] required, > 0
+    real(dp) :: dt_max = -1.0_dp             !< [s] required, > 0
+    real(dp) :: gravity(3) = 0.0_dp          !< [m/s^2]
+  end type run_config_t
+
+  type :: integrator_config_t
+    real(dp) :: newmark_beta = 0.25_dp
+    real(dp) :: newmark_gamma = 0.5_dp
+    real(dp) :: rotation_tolerance = 1.0e-14_dp   !< relative change of the rotation update [-]
+    integer :: rotation_max_iterations = 50
+    character(len=16) :: rotation = ROTATION_NEWMARK   !< 'newmark' or 'exact'
+  end type integrator_config_t
+
+  type :: contact_config_t
+    real(dp) :: restitution = 0.5_dp         !< coefficient of restitution e in [0, 1]
+    real(dp) :: friction = 0.0_dp            !< Coulomb coefficient mu >= 0
+    real(dp) :: min_separation = -1.0_dp     !< [m]; auto: 1e-4 of the smallest body size
+  end type contact_config_t
+
+  type :: output_config_t
+    character(len=path_length) :: dir = 'output'   !< relative to the deck's folder
+    real(dp) :: interval = -1.0_dp                 !< [s]; auto: t_end/100
+    real(dp) :: checkpoint_interval = 0.0_dp       !< [s]; 0: only at the end of the run
+    real(dp) :: progress_interval = 10.0_dp        !< [s of wall time] between progress lines
+  end type output_config_t
+
+  !> One &body group: a body, or a lattice of copies of it.
+  type :: body_spec_t
+    character(len=name_length) :: name = ''
+    character(len=16) :: shape = ''          !< 'sphere', 'box', 'cylinder', 'mesh'
+    real(dp) :: radius = -1.0_dp             !< [m] sphere, cylinder
+    real(dp) :: size(3) = -1.0_dp            !< [m] box edge lengths; cylinder: size(3) is the length
+    integer :: segments = 32                 !< facets around a cylinder
+    character(len=path_length) :: mesh_file = ''   !< resolved against the deck's folder
+    real(dp) :: scale = 1.0_dp               !< mesh scale factor [-]
+    real(dp) :: density = -1.0_dp            !< [kg/m^3] (density or mass, not both)
+    real(dp) :: mass = -1.0_dp               !< [kg]
+    real(dp) :: position(3) = 0.0_dp         !< [m] centre of mass (first copy)
+    real(dp) :: orientation(4) = [1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp]   !< unit quaternion w,x,y,z
+    real(dp) :: velocity(3) = 0.0_dp         !< [m/s]
+    real(dp) :: angular_velocity(3) = 0.0_dp !< [rad/s] world frame
+    logical :: fixed = .false.
+    integer :: copies(3) = 1                 !< lattice nx, ny, nz
+    real(dp) :: spacing(3) = 0.0_dp          !< [m] lattice spacing
+    integer :: seed = 0                      !< random jitter seed (0: no jitter)
+    real(dp) :: jitter_position = 0.0_dp     !< [m] max offset per axis
+    real(dp) :: jitter_angle = 0.0_dp        !< [rad] max rotation angle
+    real(dp) :: jitter_velocity = 0.0_dp     !< [m/s] max change per axis
+    integer :: line = 0                      !< line of the deck where the group starts
+  end type body_spec_t
+
+  type :: deck_t
+    character(len=:), allocatable :: path    !< the deck file as given
+    character(len=:), allocatable :: folder  !< its folder: relative paths resolve here
+    type(run_config_t) :: run
+    type(integrator_config_t) :: integrator
+    type(contact_config_t) :: contact
+    type(output_config_t) :: output
+    integer :: n_bodies = 0                  !< number of &body groups
+    type(body_spec_t), allocatable :: bodies(:)
+  end type deck_t
+
+end module input_config
