@@ -1,9 +1,156 @@
-!> The ricochet program: parse the command line, hand the deck to the library, report.
+!> The ricochet program: parse the command line, read the deck, run, report, exit with a
+!> status. Everything else is in the library; errors come back here as one error_t and
+!> leave as one line on stderr and a non-zero exit code.
 program ricochet
+  use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
+  use error_status, only: error_t, ERR_INPUT, ERR_MESH, ERR_CHECKPOINT
   use parallel_env, only: parallel_t
+  use string_utils, only: join_path
+  use input_config, only: deck_t
+  use deck_reader, only: read_deck, write_effective_deck
+  use simulation, only: simulation_t
   implicit none
+
   type(parallel_t) :: par
+  type(error_t) :: err
+  type(deck_t) :: deck
+  type(simulation_t) :: sim
+  character(len=:), allocatable :: deck_path, restart_path, mode, output_override
+
   call par%init()
-  if (par%is_root()) print '(a)', 'ricochet '//RICOCHET_VERSION
+  call parse_command_line(mode, deck_path, restart_path, output_override, err)
+  if (err%failed()) call fail(par, err)
+
+  select case (mode)
+  case ('help')
+    if (par%is_root()) call print_usage(output_unit)
+  case ('version')
+    if (par%is_root()) write (output_unit, '(a)') 'ricochet '//RICOCHET_VERSION
+  case ('check')
+    call read_deck(deck_path, deck, err)
+    if (err%failed()) call fail(par, err)
+    if (par%is_root()) then
+      write (output_unit, '(a)') '! '//deck_path//': valid. Effective input, every default filled in:'
+      call write_effective_deck(deck, output_unit)
+    end if
+  case ('output-dir')
+    call read_deck(deck_path, deck, err)
+    if (err%failed()) call fail(par, err)
+    if (par%is_root()) write (output_unit, '(a)') output_dir_of(deck, output_override)
+  case ('run')
+    call read_deck(deck_path, deck, err)
+    if (err%failed()) call fail(par, err)
+    if (par%is_root()) then
+      write (output_unit, '(a)') 'ricochet '//RICOCHET_VERSION//': '//trim(deck%run%title)//' ('//deck_path//')'
+      if (len(restart_path) > 0) write (output_unit, '(a)') '  restarting from '//restart_path
+    end if
+    call sim%init(par, deck, output_dir_of(deck, output_override), restart_path, err)
+    if (err%failed()) call fail(par, err)
+    call sim%run(par, err)
+    if (err%failed()) call fail(par, err)
+    call sim%summary(par)
+    call sim%free()
+  end select
   call par%free()
+
+contains
+
+  !> The deck's output folder (relative to the deck's folder), unless the command line
+  !> overrides it (then relative to the working directory).
+  function output_dir_of(deck, override) result(dir)
+    type(deck_t), intent(in) :: deck
+    character(len=*), intent(in) :: override
+    character(len=:), allocatable :: dir
+    if (len(override) > 0) then
+      dir = override
+    else
+      dir = join_path(deck%folder, trim(deck%output%dir))
+    end if
+  end function output_dir_of
+
+  subroutine parse_command_line(mode, deck_path, restart_path, output_override, err)
+    character(len=:), allocatable, intent(out) :: mode, deck_path, restart_path, output_override
+    type(error_t), intent(inout) :: err
+    character(len=4096) :: arg
+    integer :: i, n
+    mode = 'run'
+    deck_path = ''
+    restart_path = ''
+    output_override = ''
+    n = command_argument_count()
+    i = 0
+    do while (i < n)
+      i = i + 1
+      call get_command_argument(i, arg)
+      select case (trim(arg))
+      case ('-h', '--help')
+        mode = 'help'
+        return
+      case ('--version')
+        mode = 'version'
+        return
+      case ('--check')
+        mode = 'check'
+      case ('--print-output-dir')
+        mode = 'output-dir'
+      case ('--restart')
+        if (i == n) then
+          call err%set(ERR_INPUT, '--restart needs a checkpoint file (ricochet DECK --restart FILE)')
+          return
+        end if
+        i = i + 1
+        call get_command_argument(i, arg)
+        restart_path = trim(arg)
+      case ('--output-dir')
+        if (i == n) then
+          call err%set(ERR_INPUT, '--output-dir needs a folder')
+          return
+        end if
+        i = i + 1
+        call get_command_argument(i, arg)
+        output_override = trim(arg)
+      case default
+        if (arg(1:1) == '-') then
+          call err%set(ERR_INPUT, "unknown option '"//trim(arg)//"' (ricochet --help lists the options)")
+          return
+        end if
+        if (len(deck_path) > 0) then
+          call err%set(ERR_INPUT, "one deck per run: got '"//deck_path//"' and '"//trim(arg)//"'")
+          return
+        end if
+        deck_path = trim(arg)
+      end select
+    end do
+    if (len(deck_path) == 0) call err%set(ERR_INPUT, 'no deck given (usage: ricochet [--check] DECK [--restart FILE])')
+  end subroutine parse_command_line
+
+  subroutine print_usage(unit)
+    integer, intent(in) :: unit
+    write (unit, '(a)') 'usage: ricochet DECK                  run the deck', &
+      '       ricochet DECK --restart FILE    continue from a checkpoint of the same deck', &
+      '       ricochet --check DECK          validate and print the effective input', &
+      '       ricochet DECK --output-dir DIR  write output to DIR instead of the deck''s &output dir', &
+      '       ricochet --print-output-dir DECK', &
+      '       mpiexec -n N ricochet DECK     the same on N ranks', &
+      'Decks are Fortran namelist files: see docs/input.md.'
+  end subroutine print_usage
+
+  !> The one way out on error: one line on stderr (from rank 0), then a non-zero exit on
+  !> every rank (collective abort when there are several).
+  subroutine fail(par, err)
+    type(parallel_t), intent(inout) :: par
+    type(error_t), intent(in) :: err
+    ! Deck, mesh and checkpoint errors are seen alike by every rank: rank 0 speaks for all.
+    ! Anything else may be one rank's alone, so that rank says it, naming itself.
+    if (par%is_root()) then
+      write (error_unit, '(a)') 'ricochet: error: '//err%message
+    else if (all(err%code /= [ERR_INPUT, ERR_MESH, ERR_CHECKPOINT])) then
+      write (error_unit, '(a,i0,a)') 'ricochet: error on rank ', par%rank, ': '//err%message
+    end if
+    flush (error_unit)
+    if (par%n_ranks > 1) call par%abort(err%code)
+    call par%free()
+    stop err%code, quiet = .true.
+  end subroutine fail
+
 end program ricochet

@@ -1,0 +1,207 @@
+!> Turns the validated deck into shapes and bodies: one shape per distinct geometry (shared
+!> by every copy), then every body of every &body group with its lattice copies and jitter.
+!> Bodies get global ids in deck order, copies in lattice order (i fastest), so the same
+!> deck gives the same ids on any number of ranks; each rank keeps the ids it owns.
+module body_builder
+  use kinds, only: dp, i8
+  use error_status, only: error_t, ERR_INPUT
+  use string_utils, only: str
+  use quaternion, only: quat_mul, quat_exp, quat_normalize, quat_rotate, quat_rotate_inverse
+  use vector_ops, only: cross
+  use random_stream, only: random_stream_t
+  use mesh, only: mesh_t
+  use mesh_io, only: read_mesh_file
+  use mesh_topology, only: build_mesh_topology
+  use shape, only: shape_t, shape_library_t, SHAPE_SPHERE
+  use shape_builders, only: box_mesh, cylinder_mesh
+  use shape_factory, only: make_sphere_shape, make_mesh_shape
+  use input_config, only: deck_t, body_spec_t
+  use body_state, only: bodies_t
+  implicit none
+  private
+  public :: build_shapes, build_bodies, count_bodies, owned_range
+
+contains
+
+  !> Total number of bodies the deck describes (all lattice copies of all groups).
+  pure integer(i8) function count_bodies(deck)
+    type(deck_t), intent(in) :: deck
+    integer :: k
+    count_bodies = 0
+    do k = 1, deck%n_bodies
+      count_bodies = count_bodies + product(int(deck%bodies(k)%copies, i8))
+    end do
+  end function count_bodies
+
+  !> Global ids first..last owned by rank `rank` of `n_ranks` before any spatial
+  !> decomposition: contiguous blocks of nearly equal size.
+  pure subroutine owned_range(n_total, rank, n_ranks, first, last)
+    integer(i8), intent(in) :: n_total
+    integer, intent(in) :: rank, n_ranks
+    integer(i8), intent(out) :: first, last
+    first = (n_total*rank)/n_ranks + 1
+    last = (n_total*(rank + 1))/n_ranks
+  end subroutine owned_range
+
+  !> Builds every distinct shape once; shape_of_group(k) is the library index of group k.
+  subroutine build_shapes(deck, shapes, shape_of_group, err)
+    type(deck_t), intent(in) :: deck
+    type(shape_library_t), intent(inout) :: shapes
+    integer, allocatable, intent(out) :: shape_of_group(:)
+    type(error_t), intent(inout) :: err
+    type(shape_t) :: new_shape
+    type(mesh_t) :: m
+    character(len=:), allocatable :: label, where
+    integer :: k, index
+    allocate (shape_of_group(deck%n_bodies))
+    do k = 1, deck%n_bodies
+      associate (spec => deck%bodies(k))
+        where = deck%path//':'//str(spec%line)//': &body #'//str(k)//" '"//trim(spec%name)//"': "
+        label = shape_label(spec)
+        index = shapes%find(label)
+        if (index == 0) then
+          select case (trim(spec%shape))
+          case ('sphere')
+            call make_sphere_shape(spec%radius, new_shape)
+          case ('box')
+            call box_mesh(spec%size, m)
+          case ('cylinder')
+            call cylinder_mesh(spec%radius, spec%size(3), spec%segments, m)
+          case ('mesh')
+            call read_mesh_file(trim(spec%mesh_file), m, err, scale=spec%scale)
+          case default
+            call err%set(ERR_INPUT, "unknown shape '"//trim(spec%shape)//"'")
+          end select
+          if (err%ok() .and. (spec%shape == 'box' .or. spec%shape == 'cylinder')) call build_mesh_topology(m, err)
+          if (err%ok() .and. spec%shape /= 'sphere') call make_mesh_shape(m, label, new_shape, err)
+          if (err%failed()) then
+            call err%prefix(where)
+            return
+          end if
+          new_shape%label = label
+          call shapes%add(new_shape, index)
+        end if
+        shape_of_group(k) = index
+      end associate
+    end do
+  end subroutine build_shapes
+
+  !> Identical descriptions give identical labels, so they share one shape.
+  function shape_label(spec) result(label)
+    type(body_spec_t), intent(in) :: spec
+    character(len=:), allocatable :: label
+    character(len=200) :: buffer
+    select case (trim(spec%shape))
+    case ('sphere')
+      write (buffer, '(a,es23.16)') 'sphere r=', spec%radius
+    case ('box')
+      write (buffer, '(a,3es24.16)') 'box', spec%size
+    case ('cylinder')
+      write (buffer, '(a,2es24.16,a,i0)') 'cylinder', spec%radius, spec%size(3), ' n=', spec%segments
+    case default
+      write (buffer, '(a,es23.16)') 'scale=', spec%scale
+      label = 'mesh '//trim(spec%mesh_file)//' '//trim(buffer)
+      return
+    end select
+    label = trim(buffer)
+  end function shape_label
+
+  !> Fills `bodies` with the bodies this rank owns (global ids first..last).
+  subroutine build_bodies(deck, shapes, shape_of_group, gravity, first, last, bodies, err)
+    type(deck_t), intent(in) :: deck
+    type(shape_library_t), intent(in) :: shapes
+    integer, intent(in) :: shape_of_group(:)
+    real(dp), intent(in) :: gravity(3)
+    integer(i8), intent(in) :: first, last
+    type(bodies_t), intent(inout) :: bodies
+    type(error_t), intent(inout) :: err
+    type(random_stream_t) :: stream
+    integer(i8) :: gid
+    integer :: k, i, j, l, n
+    real(dp) :: position(3), orientation(4), velocity(3), jitter_axis(3), density
+    call bodies%allocate(int(max(0_i8, last - first + 1)))
+    gid = 0
+    n = 0
+    do k = 1, deck%n_bodies
+      associate (spec => deck%bodies(k), s => shapes%shapes(shape_of_group(k)))
+        if (spec%mass > 0.0_dp) then
+          density = spec%mass/s%volume
+        else
+          density = spec%density
+        end if
+        if (spec%seed /= 0) call stream%init(spec%seed)
+        do l = 1, spec%copies(3)
+          do j = 1, spec%copies(2)
+            do i = 1, spec%copies(1)
+              gid = gid + 1
+              position = spec%position + [real(i - 1, dp), real(j - 1, dp), real(l - 1, dp)]*spec%spacing
+              orientation = spec%orientation
+              velocity = spec%velocity
+              ! Every copy draws its jitter, owned or not, so a body's jitter does not
+              ! depend on the number of ranks.
+              if (spec%seed /= 0) then
+                position = position + [stream%symmetric(spec%jitter_position), &
+                                       stream%symmetric(spec%jitter_position), stream%symmetric(spec%jitter_position)]
+                jitter_axis = stream%unit_vector()
+                orientation = quat_normalize(quat_mul(quat_exp(stream%uniform()*spec%jitter_angle*jitter_axis), &
+                                                      orientation))
+                velocity = velocity + [stream%symmetric(spec%jitter_velocity), &
+                                       stream%symmetric(spec%jitter_velocity), stream%symmetric(spec%jitter_velocity)]
+              end if
+              if (gid < first .or. gid > last) cycle
+              n = n + 1
+              call place_body(bodies, n, gid, k, shape_of_group(k), s, spec%fixed, density, position, &
+                              orientation, velocity, spec%angular_velocity, gravity)
+            end do
+          end do
+        end do
+      end associate
+    end do
+    bodies%n_owned = n
+    if (n /= last - first + 1) call err%set(ERR_INPUT, 'internal: built '//str(n)//' bodies, expected '// &
+                                            str(last - first + 1))
+  end subroutine build_bodies
+
+  !> Sets body n from the user's description: the user orientation rotates the shape's own
+  !> frame into the world; internally the body is held in the shape's principal frame.
+  subroutine place_body(bodies, n, gid, group, shape_index, s, fixed, density, position, orientation, &
+                        velocity, angular_velocity, gravity)
+    type(bodies_t), intent(inout) :: bodies
+    integer, intent(in) :: n, group, shape_index
+    integer(i8), intent(in) :: gid
+    type(shape_t), intent(in) :: s
+    logical, intent(in) :: fixed
+    real(dp), intent(in) :: density, position(3), orientation(4), velocity(3), angular_velocity(3), gravity(3)
+    real(dp) :: jw(3), wb(3)
+    bodies%gid(n) = gid
+    bodies%group_id(n) = group
+    bodies%shape_id(n) = shape_index
+    bodies%fixed(n) = fixed
+    bodies%x(:, n) = position
+    bodies%q(:, n) = quat_normalize(quat_mul(orientation, s%q_principal))
+    if (fixed) then
+      bodies%mass(n) = max(density, 0.0_dp)*s%volume
+      bodies%inertia(:, n) = max(density, 0.0_dp)*s%unit_inertia
+      bodies%inv_mass(n) = 0.0_dp
+      bodies%inv_inertia(:, n) = 0.0_dp
+      bodies%v(:, n) = 0.0_dp
+      bodies%w(:, n) = 0.0_dp
+      bodies%a(:, n) = 0.0_dp
+      bodies%alpha(:, n) = 0.0_dp
+      return
+    end if
+    bodies%mass(n) = density*s%volume
+    bodies%inertia(:, n) = density*s%unit_inertia
+    bodies%inv_mass(n) = 1.0_dp/bodies%mass(n)
+    bodies%inv_inertia(:, n) = 1.0_dp/bodies%inertia(:, n)
+    bodies%v(:, n) = velocity
+    bodies%w(:, n) = angular_velocity
+    bodies%a(:, n) = gravity
+    ! Euler's equations at t0, torque-free: J alpha = -w x (J w), in the body frame.
+    wb = quat_rotate_inverse(bodies%q(:, n), angular_velocity)
+    jw = bodies%inertia(:, n)*wb
+    bodies%alpha(:, n) = quat_rotate(bodies%q(:, n), -cross(wb, jw)*bodies%inv_inertia(:, n))
+    if (s%kind == SHAPE_SPHERE) bodies%alpha(:, n) = 0.0_dp
+  end subroutine place_body
+
+end module body_builder

@@ -1,0 +1,71 @@
+!> System totals used to tell the user how good a run was: energies, momentum, and angular
+!> momentum about the system's centre of mass. Under uniform gravity with no contact with
+!> fixed bodies, E = T + V, P - M g t and L_cm are exact invariants, so their drift is the
+!> integration error.
+module conservation
+  use kinds, only: dp
+  use vector_ops, only: cross
+  use body_state, only: bodies_t
+  use parallel_env, only: parallel_t
+  implicit none
+  private
+  public :: system_totals_t, compute_totals
+
+  type :: system_totals_t
+    real(dp) :: kinetic_translational = 0.0_dp   !< [J]
+    real(dp) :: kinetic_rotational = 0.0_dp      !< [J]
+    real(dp) :: potential = 0.0_dp               !< [J] -sum m g.x, zero at the origin
+    real(dp) :: mass = 0.0_dp                    !< [kg] of the moving bodies
+    real(dp) :: momentum(3) = 0.0_dp             !< [kg m/s]
+    real(dp) :: angular_momentum(3) = 0.0_dp     !< [kg m^2/s] about the centre of mass
+    real(dp) :: centre_of_mass(3) = 0.0_dp       !< [m]
+  contains
+    procedure :: energy => totals_energy
+  end type system_totals_t
+
+contains
+
+  pure real(dp) function totals_energy(self)
+    class(system_totals_t), intent(in) :: self
+    totals_energy = self%kinetic_translational + self%kinetic_rotational + self%potential
+  end function totals_energy
+
+  !> Sums over the owned bodies of every rank (ghosts excluded, so nothing counts twice).
+  subroutine compute_totals(par, bodies, gravity, totals)
+    type(parallel_t), intent(in) :: par
+    type(bodies_t), intent(in) :: bodies
+    real(dp), intent(in) :: gravity(3)
+    type(system_totals_t), intent(out) :: totals
+    real(dp) :: buffer(17), et, er, first_moment(3), l_origin(3)
+    integer :: i
+    buffer = 0.0_dp
+    do i = 1, bodies%n_owned
+      if (bodies%fixed(i)) cycle
+      call bodies%kinetic_energy(i, et, er)
+      buffer(1) = buffer(1) + et
+      buffer(2) = buffer(2) + er
+      buffer(3) = buffer(3) - bodies%mass(i)*dot_product(gravity, bodies%x(:, i))
+      buffer(4) = buffer(4) + bodies%mass(i)
+      buffer(5:7) = buffer(5:7) + bodies%mass(i)*bodies%v(:, i)
+      buffer(8:10) = buffer(8:10) + bodies%mass(i)*cross(bodies%x(:, i), bodies%v(:, i)) + &
+                     bodies%angular_momentum(i)
+      buffer(11:13) = buffer(11:13) + bodies%mass(i)*bodies%x(:, i)
+    end do
+    call par%sum_inplace(buffer)
+    totals%kinetic_translational = buffer(1)
+    totals%kinetic_rotational = buffer(2)
+    totals%potential = buffer(3)
+    totals%mass = buffer(4)
+    totals%momentum = buffer(5:7)
+    l_origin = buffer(8:10)
+    first_moment = buffer(11:13)
+    if (totals%mass > 0.0_dp) then
+      totals%centre_of_mass = first_moment/totals%mass
+    else
+      totals%centre_of_mass = 0.0_dp
+    end if
+    ! L about the centre of mass: L_origin - X x P.
+    totals%angular_momentum = l_origin - cross(totals%centre_of_mass, totals%momentum)
+  end subroutine compute_totals
+
+end module conservation

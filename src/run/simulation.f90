@@ -1,0 +1,346 @@
+!> One run: builds shapes and bodies from a deck (or a checkpoint), owns the clock, and
+!> drives the loop { choose the step -> advance the bodies -> history, frames, checkpoints }.
+!> Each stage reads the state and writes only its own result; only this loop owns time.
+module simulation
+  use kinds, only: dp, i8
+  use constants, only: name_length
+  use error_status, only: error_t, ERR_INPUT, ERR_NUMERIC, ERR_CHECKPOINT
+  use string_utils, only: str, join_path
+  use parallel_env, only: parallel_t
+  use input_config, only: deck_t
+  use shape, only: shape_library_t
+  use body_state, only: bodies_t
+  use body_builder, only: build_shapes, build_bodies, count_bodies, owned_range
+  use conservation, only: system_totals_t, compute_totals
+  use newmark_integrator, only: advance_free_flight, free_flight_stats_t
+  use history_writer, only: history_writer_t, history_record_t
+  use frame_writer, only: frame_writer_t
+  use checkpoint_meta, only: checkpoint_meta_t
+  use checkpoint_io, only: write_checkpoint, read_checkpoint, check_checkpoint_matches
+  implicit none
+  private
+  public :: simulation_t
+
+  !> A step that would leave less than this fraction of dt_max before an output or
+  !> checkpoint time is stretched to land on it: no sliver steps.
+  real(dp), parameter :: sliver_fraction = 1.0e-6_dp
+
+  type :: simulation_t
+    type(deck_t) :: deck
+    type(shape_library_t) :: shapes
+    type(bodies_t) :: bodies
+    character(len=name_length), allocatable :: group_names(:)
+    character(len=:), allocatable :: output_dir
+    type(frame_writer_t) :: frames
+    type(history_writer_t) :: history
+    real(dp) :: time = 0.0_dp
+    integer(i8) :: step = 0
+    integer(i8) :: n_total = 0
+    real(dp) :: next_output = 0.0_dp
+    real(dp) :: next_checkpoint = huge(1.0_dp)
+    integer :: n_checkpoints = 0
+    real(dp) :: wall_before = 0.0_dp      !< wall time of earlier runs (restarts) [s]
+    real(dp) :: wall_start = 0.0_dp
+    real(dp) :: last_progress = 0.0_dp
+    real(dp) :: last_dt = 0.0_dp
+    type(system_totals_t) :: initial          !< totals at t = 0 (carried through restarts)
+    real(dp) :: max_energy_error = 0.0_dp     !< largest relative energy error seen
+    real(dp) :: max_momentum_error = 0.0_dp
+    real(dp) :: max_angular_momentum_error = 0.0_dp
+    type(free_flight_stats_t) :: flight
+    logical :: restarted = .false.
+  contains
+    procedure :: init => simulation_init
+    procedure :: run => simulation_run
+    procedure :: summary => simulation_summary
+    procedure :: free => simulation_free
+    procedure, private :: record_history, write_frame, write_checkpoint_now, fill_meta, restart_from
+  end type simulation_t
+
+contains
+
+  subroutine simulation_init(self, par, deck, output_dir, restart_path, err)
+    class(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    type(deck_t), intent(in) :: deck
+    character(len=*), intent(in) :: output_dir     !< where frames, history, checkpoints go
+    character(len=*), intent(in) :: restart_path   !< checkpoint to continue from, or ''
+    type(error_t), intent(inout) :: err
+    integer, allocatable :: shape_of_group(:)
+    integer(i8) :: first, last
+    integer :: k
+
+    self%deck = deck
+    self%wall_start = par%wtime()
+    self%last_progress = self%wall_start
+    self%output_dir = output_dir
+    allocate (self%group_names(deck%n_bodies))
+    do k = 1, deck%n_bodies
+      self%group_names(k) = deck%bodies(k)%name
+    end do
+
+    call build_shapes(deck, self%shapes, shape_of_group, err)
+    if (err%failed()) return
+    self%n_total = count_bodies(deck)
+    call owned_range(self%n_total, par%rank, par%n_ranks, first, last)
+    call build_bodies(deck, self%shapes, shape_of_group, deck%run%gravity, first, last, self%bodies, err)
+    if (err%failed()) return
+
+    if (deck%output%checkpoint_interval > 0.0_dp) then
+      self%next_checkpoint = deck%output%checkpoint_interval
+    end if
+    self%next_output = 0.0_dp
+
+    call self%frames%init(par, self%output_dir, err)
+    if (err%failed()) return
+
+    if (len_trim(restart_path) > 0) then
+      call self%restart_from(par, restart_path, first, last, err)
+      if (err%failed()) return
+    else
+      call compute_totals(par, self%bodies, deck%run%gravity, self%initial)
+    end if
+    call self%history%init(par, join_path(self%output_dir, 'history.csv'), self%time, err)
+    if (err%failed()) return
+    if (.not. self%restarted) then
+      call self%record_history(par, err)
+      if (err%failed()) return
+      call self%write_frame(par, err)
+    end if
+  end subroutine simulation_init
+
+  !> Continues from a checkpoint written by a run of the same deck.
+  subroutine restart_from(self, par, path, first, last, err)
+    class(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    character(len=*), intent(in) :: path
+    integer(i8), intent(in) :: first, last
+    type(error_t), intent(inout) :: err
+    type(checkpoint_meta_t) :: meta, expected
+    type(bodies_t) :: saved
+    integer :: i, n
+
+    call read_checkpoint(par, path, meta, saved, err)
+    if (err%failed()) return
+    call self%fill_meta(par, expected)
+    call check_checkpoint_matches(meta, expected, path, err)
+    if (err%failed()) return
+    ! Keep the bodies this rank owns, each at its place in global-id order.
+    n = 0
+    do i = 1, saved%n_owned
+      if (saved%gid(i) < first .or. saved%gid(i) > last) cycle
+      n = n + 1
+      call copy_body(saved, i, self%bodies, int(saved%gid(i) - first + 1))
+    end do
+    if (n /= self%bodies%n_owned) then
+      call err%set(ERR_CHECKPOINT, "checkpoint '"//path//"' holds "//str(n)//' of the '// &
+                   str(self%bodies%n_owned)//' bodies this rank needs')
+      return
+    end if
+    self%time = meta%time
+    self%step = meta%step
+    self%next_output = meta%next_output_time
+    self%next_checkpoint = meta%next_checkpoint_time
+    self%wall_before = meta%wall_time_before
+    self%initial%kinetic_translational = meta%e0
+    self%initial%kinetic_rotational = 0.0_dp
+    self%initial%potential = 0.0_dp
+    self%initial%momentum = meta%p0
+    self%initial%angular_momentum = meta%l0
+    self%initial%mass = meta%mass0
+    call self%frames%restore(meta%n_frames, meta%frame_times)
+    self%restarted = .true.
+  end subroutine restart_from
+
+  subroutine copy_body(from, i, to, j)
+    type(bodies_t), intent(in) :: from
+    integer, intent(in) :: i, j
+    type(bodies_t), intent(inout) :: to
+    to%gid(j) = from%gid(i)
+    to%shape_id(j) = from%shape_id(i)
+    to%group_id(j) = from%group_id(i)
+    to%fixed(j) = from%fixed(i)
+    to%mass(j) = from%mass(i)
+    to%inv_mass(j) = from%inv_mass(i)
+    to%inertia(:, j) = from%inertia(:, i)
+    to%inv_inertia(:, j) = from%inv_inertia(:, i)
+    to%x(:, j) = from%x(:, i)
+    to%q(:, j) = from%q(:, i)
+    to%v(:, j) = from%v(:, i)
+    to%w(:, j) = from%w(:, i)
+    to%a(:, j) = from%a(:, i)
+    to%alpha(:, j) = from%alpha(:, i)
+  end subroutine copy_body
+
+  subroutine simulation_run(self, par, err)
+    class(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    type(error_t), intent(inout) :: err
+    real(dp) :: h, t_end, dt_max, target
+    logical :: hits_output, hits_checkpoint
+
+    t_end = self%deck%run%t_end
+    dt_max = self%deck%run%dt_max
+    do while (self%time < t_end)
+      ! The step: dt_max, shortened to land exactly on the next output, checkpoint or end.
+      target = min(t_end, self%next_output, self%next_checkpoint)
+      if (target - self%time <= dt_max*(1.0_dp + sliver_fraction)) then
+        h = target - self%time
+      else
+        h = dt_max
+      end if
+      call advance_free_flight(self%bodies, h, self%deck%run%gravity, self%deck%integrator, self%flight)
+      self%step = self%step + 1
+      self%last_dt = h
+      if (h == target - self%time) then
+        self%time = target          ! exactly: output times stay k*interval, with no drift
+      else
+        self%time = self%time + h
+      end if
+      hits_output = self%time >= self%next_output
+      hits_checkpoint = self%time >= self%next_checkpoint
+      if (hits_output .or. self%time >= t_end) then
+        call self%record_history(par, err)
+        if (err%failed()) return
+        call self%write_frame(par, err)
+        if (err%failed()) return
+      end if
+      if (hits_checkpoint) then
+        call self%write_checkpoint_now(par, 'checkpoint_'//str6(self%n_checkpoints + 1), err)
+        if (err%failed()) return
+      end if
+      call progress(self, par)
+    end do
+    call self%write_checkpoint_now(par, 'checkpoint_final', err)
+  end subroutine simulation_run
+
+  function str6(i) result(text)
+    integer, intent(in) :: i
+    character(len=6) :: text
+    write (text, '(i6.6)') i
+  end function str6
+
+  subroutine record_history(self, par, err)
+    class(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    type(error_t), intent(inout) :: err
+    type(system_totals_t) :: now
+    type(history_record_t) :: rec
+    real(dp) :: scale, expected_p(3)
+    call compute_totals(par, self%bodies, self%deck%run%gravity, now)
+    rec%time = self%time
+    rec%dt = self%last_dt
+    rec%steps = self%step
+    rec%kinetic_translational = now%kinetic_translational
+    rec%kinetic_rotational = now%kinetic_rotational
+    rec%potential = now%potential
+    rec%momentum = now%momentum
+    rec%angular_momentum = now%angular_momentum
+    rec%wall_time = self%wall_before + (par%wtime() - self%wall_start)
+    call self%history%write(par, rec, err)
+    ! Conservation errors relative to the initial kinetic plus |potential| energy scale, and
+    ! to the momentum scale: meaningful whatever the origin of the potential.
+    scale = max(self%initial%kinetic_translational + self%initial%kinetic_rotational + &
+                abs(self%initial%potential), tiny(1.0_dp))
+    self%max_energy_error = max(self%max_energy_error, abs(now%energy() - self%initial%energy())/scale)
+    expected_p = self%initial%momentum + self%initial%mass*self%deck%run%gravity*self%time
+    scale = max(norm2(self%initial%momentum), norm2(expected_p), tiny(1.0_dp))
+    self%max_momentum_error = max(self%max_momentum_error, norm2(now%momentum - expected_p)/scale)
+    scale = max(norm2(self%initial%angular_momentum), tiny(1.0_dp))
+    if (norm2(self%initial%angular_momentum) > 0.0_dp) self%max_angular_momentum_error = &
+      max(self%max_angular_momentum_error, norm2(now%angular_momentum - self%initial%angular_momentum)/scale)
+  end subroutine record_history
+
+  subroutine write_frame(self, par, err)
+    class(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    type(error_t), intent(inout) :: err
+    call self%frames%write(par, self%time, self%bodies, self%shapes, self%group_names, err)
+    ! Output times are multiples of the interval, computed, not accumulated.
+    self%next_output = real(self%frames%n_frames, dp)*self%deck%output%interval
+  end subroutine write_frame
+
+  subroutine write_checkpoint_now(self, par, name, err)
+    class(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    character(len=*), intent(in) :: name
+    type(error_t), intent(inout) :: err
+    type(checkpoint_meta_t) :: meta
+    if (self%time >= self%next_checkpoint) then
+      self%n_checkpoints = self%n_checkpoints + 1
+      self%next_checkpoint = real(self%n_checkpoints + 1, dp)*self%deck%output%checkpoint_interval
+    end if
+    call self%fill_meta(par, meta)
+    call write_checkpoint(par, join_path(self%output_dir, name//'.h5'), meta, self%bodies, err)
+  end subroutine write_checkpoint_now
+
+  !> What a checkpoint needs besides the bodies, and the deck fingerprint it is checked with.
+  subroutine fill_meta(self, par, meta)
+    class(simulation_t), intent(in) :: self
+    type(parallel_t), intent(in) :: par
+    type(checkpoint_meta_t), intent(out) :: meta
+    integer :: i
+    real(dp) :: checksum
+    meta%time = self%time
+    meta%step = self%step
+    meta%n_frames = self%frames%n_frames
+    meta%frame_times = self%frames%frame_times(1:self%frames%n_frames)
+    meta%next_output_time = self%next_output
+    meta%next_checkpoint_time = self%next_checkpoint
+    meta%wall_time_before = self%wall_before + (par%wtime() - self%wall_start)
+    meta%e0 = self%initial%energy()
+    meta%p0 = self%initial%momentum
+    meta%l0 = self%initial%angular_momentum
+    meta%mass0 = self%initial%mass
+    meta%n_bodies_total = self%n_total
+    meta%title = self%deck%run%title
+    ! Fingerprint of the deck's bodies: masses weighted by global id, summed over ranks.
+    checksum = 0.0_dp
+    do i = 1, self%bodies%n_owned
+      checksum = checksum + self%bodies%mass(i)*real(self%bodies%gid(i), dp)
+    end do
+    meta%checksum = par%sum(checksum)
+  end subroutine fill_meta
+
+  subroutine progress(self, par)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    real(dp) :: now, rate, left
+    now = par%wtime()
+    if (now - self%last_progress < self%deck%output%progress_interval) return
+    self%last_progress = now
+    if (.not. par%is_root()) return
+    rate = self%time/max(now - self%wall_start + self%wall_before, tiny(1.0_dp))
+    left = (self%deck%run%t_end - self%time)/max(rate, tiny(1.0_dp))
+    write (*, '(a,es11.4,a,es11.4,a,i0,a,es10.3,a,f0.1,a)') '  t = ', self%time, ' / ', self%deck%run%t_end, &
+      ' s   steps ', self%step, '   ', rate, ' sim s per wall s   about ', left, ' s left'
+  end subroutine progress
+
+  subroutine simulation_summary(self, par)
+    class(simulation_t), intent(in) :: self
+    type(parallel_t), intent(in) :: par
+    real(dp) :: wall, per_step
+    wall = par%wtime() - self%wall_start
+    if (.not. par%is_root()) return
+    per_step = wall/max(real(self%step, dp), 1.0_dp)
+    write (*, '(a)') 'ricochet: run finished'
+    write (*, '(a,f0.3,a,i0,a,i0,a)') '  wall time            ', wall, ' s (', par%n_ranks, ' ranks), ', &
+      self%step, ' steps in all'
+    write (*, '(a,es10.3,a,es10.3,a)') '  time per step        ', per_step, ' s, ', &
+      per_step/max(real(self%n_total, dp), 1.0_dp), ' s per body'
+    write (*, '(a,i0,a,i0,a)') '  bodies               ', self%n_total, ' in ', self%shapes%n_shapes, ' distinct shapes'
+    write (*, '(a,es10.3)') '  energy error (max)   ', self%max_energy_error
+    write (*, '(a,es10.3)') '  momentum error (max) ', self%max_momentum_error
+    write (*, '(a,es10.3)') '  ang. momentum error  ', self%max_angular_momentum_error
+    write (*, '(a,i0,a,i0,a,i0)') '  rotation iterations  ', self%flight%iterations_total, ' (max per update ', &
+      self%flight%iterations_max, '), not converged: ', self%flight%not_converged
+    write (*, '(a,i0,a)') '  frames written       ', self%frames%n_frames, ' in '//self%output_dir
+  end subroutine simulation_summary
+
+  subroutine simulation_free(self)
+    class(simulation_t), intent(inout) :: self
+    call self%bodies%free()
+    call self%shapes%free()
+  end subroutine simulation_free
+
+end module simulation
