@@ -35,9 +35,8 @@ contains
     end do
   end subroutine stream_init
 
-  !> xoshiro256** (Blackman & Vigna): 64 random bits. Integer overflow wraps (two's
-  !> complement), which is what the algorithm needs; -fno-range-check is not required since
-  !> no constant overflows.
+  !> xoshiro256** (Blackman & Vigna): 64 random bits. The algorithm needs integer overflow
+  !> to wrap (two's complement): this file is compiled with -fwrapv (src/CMakeLists.txt).
   integer(i8) function stream_next(self)
     class(random_stream_t), intent(inout) :: self
     integer(i8) :: t
