@@ -43,6 +43,7 @@ module simulation
     real(dp) :: wall_start = 0.0_dp
     real(dp) :: last_progress = 0.0_dp
     real(dp) :: last_dt = 0.0_dp
+    real(dp) :: integration_wall = 0.0_dp     !< wall time spent moving bodies, this run [s]
     type(system_totals_t) :: initial          !< totals at t = 0 (carried through restarts)
     real(dp) :: max_energy_error = 0.0_dp     !< largest relative energy error seen
     real(dp) :: max_momentum_error = 0.0_dp
@@ -176,7 +177,7 @@ contains
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
-    real(dp) :: h, t_end, dt_max, target
+    real(dp) :: h, t_end, dt_max, target, clock
     logical :: hits_output, hits_checkpoint
 
     t_end = self%deck%run%t_end
@@ -189,7 +190,9 @@ contains
       else
         h = dt_max
       end if
+      clock = par%wtime()
       call advance_free_flight(self%bodies, h, self%deck%run%gravity, self%deck%integrator, self%flight)
+      self%integration_wall = self%integration_wall + (par%wtime() - clock)
       self%step = self%step + 1
       self%last_dt = h
       if (h == target - self%time) then
@@ -328,6 +331,8 @@ contains
       self%step, ' steps in all'
     write (*, '(a,es10.3,a,es10.3,a)') '  time per step        ', per_step, ' s, ', &
       per_step/max(real(self%n_total, dp), 1.0_dp), ' s per body'
+    write (*, '(a,f0.3,a,es10.3,a)') '  integration time     ', self%integration_wall, ' s (', &
+      real(self%n_total, dp)*real(self%step, dp)/max(self%integration_wall, tiny(1.0_dp)), ' body updates per s)'
     write (*, '(a,i0,a,i0,a)') '  bodies               ', self%n_total, ' in ', self%shapes%n_shapes, ' distinct shapes'
     write (*, '(a,es10.3)') '  energy error (max)   ', self%max_energy_error
     write (*, '(a,es10.3)') '  momentum error (max) ', self%max_momentum_error

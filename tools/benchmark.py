@@ -1,0 +1,193 @@
+#!/usr/bin/env python3
+"""Run-time-against-error benchmarks for ricochet.
+
+Runs the ricochet program on generated decks at several settings, measures each run
+(CPU seconds of the child process and wall seconds, best of --repeat runs) and its error
+against a reference, and writes a Markdown table and a PNG plot into docs/ (or --out-dir).
+
+  .venv/bin/python tools/benchmark.py free-rotation   # error at T=20 s vs cost, per method and dt
+  .venv/bin/python tools/benchmark.py throughput      # free-flight body updates per second, 1e3..1e6 bodies
+
+The free-rotation case is the torque-free body with principal moments (1, 2, 3) kg m^2 and
+w0 = (0.01, 5, 0.01) rad/s of tests/data/free_rotation_I123.csv (a thin plate with its
+inertia set exactly through &body inertia).
+"""
+import argparse
+import os
+import platform
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def run_deck(exe, deck_text, workdir, repeat=1):
+    """Runs a deck; returns (best cpu seconds, best wall seconds, output dir, stdout)."""
+    deck = os.path.join(workdir, "bench.nml")
+    with open(deck, "w") as f:
+        f.write(deck_text)
+    out_dir = os.path.join(workdir, "out")
+    best_cpu = best_wall = float("inf")
+    stdout = ""
+    for _ in range(repeat):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t0 = time.perf_counter()
+        proc = subprocess.run([exe, deck, "--output-dir", out_dir], capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        if proc.returncode != 0:
+            sys.exit(f"benchmark: ricochet failed on\n{deck_text}\n{proc.stderr}")
+        cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+        best_cpu, best_wall = min(best_cpu, cpu), min(best_wall, wall)
+        stdout = proc.stdout
+    return best_cpu, best_wall, out_dir, stdout
+
+
+def final_frame(out_dir):
+    import h5py
+    frames = sorted(f for f in os.listdir(os.path.join(out_dir, "frames")) if f.endswith(".h5"))
+    with h5py.File(os.path.join(out_dir, "frames", frames[-1]), "r") as f:
+        return {k: np.array(f["bodies"][k]) for k in f["bodies"].keys()}
+
+
+def quat_to_matrix(q):
+    w, x, y, z = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def quat_angle(a, b):
+    """Angle of the rotation between two unit quaternions [rad]."""
+    d = abs(float(np.dot(a, b)))
+    return 2.0 * np.arccos(min(1.0, d)) if d < 1 - 1e-8 else 2.0 * np.linalg.norm(
+        (a[0] * b[1:] - b[0] * a[1:] - np.cross(a[1:], b[1:])))
+
+
+def machine_line():
+    cpu = "unknown CPU"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
+
+
+def free_rotation(args):
+    ref = np.loadtxt(os.path.join(ROOT, "tests", "data", "free_rotation_I123.csv"), delimiter=",", comments="#")
+    header = open(os.path.join(ROOT, "tests", "data", "free_rotation_I123.csv")).readline()
+    # columns: t, wx, wy, wz (body), qw, qx, qy, qz
+    t_end = 20.0
+    row = ref[np.argmin(abs(ref[:, 0] - t_end))]
+    w_ref, q_ref = row[1:4], row[4:8]
+    methods = args.methods.split(",")
+    dts = [float(x) for x in args.dts.split(",")]
+    results = []
+    for method in methods:
+        for dt in dts:
+            deck = f"""&run title='free rotation I=(1,2,3)', t_end={t_end}, dt_max={dt!r}, gravity=0,0,0 /
+&integrator rotation='{method}' /
+&output interval={t_end}, checkpoint_interval=0 /
+&body name='plate', shape='box', size=1.4142135623730951,1.0,0.01, mass=12.0, inertia=1.0,2.0,3.0,
+      angular_velocity=0.01,5.0,0.01 /
+"""
+            with tempfile.TemporaryDirectory() as work:
+                cpu, wall, out, _ = run_deck(args.exe, deck, work, args.repeat)
+                b = final_frame(out)
+            q = b["orientation"].reshape(-1, 4)[0]
+            w_world = b["angular_velocity"].reshape(-1, 3)[0]
+            w_body = quat_to_matrix(q).T @ w_world
+            err_w = float(np.max(np.abs(w_body - w_ref)))
+            err_q = float(quat_angle(q, q_ref))
+            results.append((method, dt, cpu, wall, err_w, err_q))
+            print(f"{method:8s} dt={dt:8.1e}  cpu={cpu:8.3f}s wall={wall:8.3f}s  |w-w_ref|={err_w:9.2e}  angle={err_q:9.2e}",
+                  flush=True)
+    write_free_rotation_report(args, results, header)
+
+
+def write_free_rotation_report(args, results, header):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for method in sorted(set(r[0] for r in results)):
+        rs = [r for r in results if r[0] == method]
+        ax.loglog([r[2] for r in rs], [max(r[4], r[5], 1e-16) for r in rs], "o-", label=method)
+        for r in rs:
+            ax.annotate(f"{r[1]:.0e}", (r[2], max(r[4], r[5], 1e-16)), fontsize=7)
+    ax.set_xlabel("CPU time of the whole run [s]")
+    ax.set_ylabel("error at T = 20 s (max of |w - w_ref|, orientation angle)")
+    ax.set_title("Free rotation, I = (1,2,3), w0 = (0.01, 5, 0.01)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    png = os.path.join(args.out_dir, "bench_free_rotation.png")
+    fig.savefig(png, dpi=120, bbox_inches="tight")
+    lines = ["| rotation | dt [s] | CPU [s] | wall [s] | max abs error w [rad/s] | orientation error [rad] |",
+             "|---|---|---|---|---|---|"]
+    for m, dt, cpu, wall, ew, eq in results:
+        lines.append(f"| {m} | {dt:.0e} | {cpu:.3f} | {wall:.3f} | {ew:.2e} | {eq:.2e} |")
+    table = "\n".join(lines)
+    with open(os.path.join(args.out_dir, "bench_free_rotation.md"), "w") as f:
+        f.write(f"Machine: {machine_line()}. Release build, best of {args.repeat} runs.\n"
+                f"Reference: {header.strip()}\n\n{table}\n")
+    print(table)
+    print(f"wrote {png}")
+
+
+def throughput(args):
+    results = []
+    for n_side in [int(x) for x in args.sides.split(",")]:
+        n = n_side ** 3
+        steps = max(10, int(args.updates / n))
+        dt = 1.0e-3
+        for shape, extra in (("sphere", "radius=0.1"), ("box", "size=0.2,0.1,0.05")):
+            deck = f"""&run title='throughput', t_end={steps * dt!r}, dt_max={dt!r}, gravity=0,0,-9.81 /
+&output interval={steps * dt!r}, write_frames=.false., checkpoint_interval=0 /
+&body name='gas', shape='{shape}', {extra}, density=1000, copies={n_side},{n_side},{n_side},
+      spacing=1,1,1, angular_velocity=1,2,3, seed=5, jitter_velocity=1, jitter_angle=3 /
+"""
+            with tempfile.TemporaryDirectory() as work:
+                cpu, wall, out, stdout = run_deck(args.exe, deck, work, 1)
+            m = re.search(r"integration time\s+([0-9.eE+-]+) s", stdout)
+            t_int = float(m.group(1)) if m else wall
+            rate = n * steps / t_int
+            results.append((shape, n, steps, t_int, wall, rate))
+            print(f"{shape:6s} n={n:8d} steps={steps:6d} integration={t_int:8.3f}s wall={wall:8.3f}s "
+                  f"-> {rate:10.3e} body updates/s", flush=True)
+    lines = ["| shape | bodies | steps | integration [s] | whole run wall [s] | body updates per second |",
+             "|---|---|---|---|---|---|"]
+    for shape, n, steps, t_int, wall, rate in results:
+        lines.append(f"| {shape} | {n} | {steps} | {t_int:.3f} | {wall:.3f} | {rate:.3e} |")
+    table = "\n".join(lines)
+    with open(os.path.join(args.out_dir, "bench_throughput.md"), "w") as f:
+        f.write(f"Machine: {machine_line()}. Release build, one rank.\n\n{table}\n")
+    print(table)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("case", choices=["free-rotation", "throughput"])
+    p.add_argument("--exe", default=os.path.join(ROOT, "build", "app", "ricochet"))
+    p.add_argument("--out-dir", default=os.path.join(ROOT, "docs", "bench"))
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--methods", default="newmark,exact")
+    p.add_argument("--dts", default="1e-2,3e-3,1e-3,3e-4,1e-4,3e-5,1e-5")
+    p.add_argument("--sides", default="10,22,46,100", help="lattice sides: n = side^3 bodies")
+    p.add_argument("--updates", type=float, default=2e7, help="body updates per run")
+    args = p.parse_args()
+    os.makedirs(args.out_dir, exist_ok=True)
+    {"free-rotation": free_rotation, "throughput": throughput}[args.case](args)
+
+
+if __name__ == "__main__":
+    main()
