@@ -1,0 +1,261 @@
+!> Frictionless impulses for a set of simultaneous contacts, with restitution e.
+!>
+!> Contacts are grouped into connected components through moving bodies (a fixed body does
+!> not connect anything). In each group, with velocities scaled by the mass matrix
+!> (vt = M^(1/2) v) and E the matrix whose column i is M^(-1/2) J_i^T (J_i: contact i's
+!> normal-velocity row), the post-impact velocities are:
+!>  - inelastic part: the M-norm projection of v onto {J v >= 0}, i.e. vt + E lambda with
+!>    lambda = argmin_{lambda >= 0} |E lambda + vt| (the LCP 0 <= lambda _|_ K lambda + u >= 0,
+!>    K = E^T E, u = J v, written as non-negative least squares);
+!>  - elastic part: Generalized Reflections (Smith, Kaufman, Vouga, Tamstorf, Grinspun,
+!>    "Reflections on Simultaneous Impact", SIGGRAPH 2012): repeatedly solve the e = 1 LCP
+!>    0 <= lambda _|_ K lambda + 2 u >= 0 on the contacts still approaching (u_i < -v_tol)
+!>    until none approaches; this conserves energy and lets a Newton's cradle break apart;
+!>  - v+ = (1 - e) v_inelastic + e v_elastic (generalized restitution). Kinetic energy is
+!>    convex, so KE+ <= KE-, with equality at e = 1; momentum is conserved; and since the
+!>    projection is unique the answer is symmetric whenever the contact set is: a box landing
+!>    flat on four corners gets no spin from the order of its corners.
+!> The NNLS solve is exact (Lawson-Hanson), so no iteration order enters the answer.
+module impulse_solver
+  use kinds, only: dp
+  use error_status, only: error_t
+  use vector_ops, only: cross
+  use quaternion, only: quat_rotate, quat_rotate_inverse
+  use body_state, only: bodies_t
+  use nnls, only: solve_nnls
+  implicit none
+  private
+  public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity
+
+  !> One contact point between bodies a and b (indices into bodies_t, both valid; either
+  !> may be fixed).
+  type :: contact_t
+    integer :: a = 0
+    integer :: b = 0
+    real(dp) :: point(3) = 0.0_dp     !< world contact point [m]
+    real(dp) :: normal(3) = 0.0_dp    !< unit normal from a to b
+    real(dp) :: restitution = 0.0_dp  !< e of this pair (the group uses the smallest)
+  end type contact_t
+
+  type :: impulse_stats_t
+    integer :: groups = 0             !< contact groups solved
+    integer :: reflection_rounds = 0  !< generalized-reflection rounds, summed
+    integer :: max_rounds_seen = 0
+    integer :: cap_hits = 0           !< groups whose elastic loop hit the cap
+    integer :: nnls_iterations = 0
+  end type impulse_stats_t
+
+contains
+
+  !> Relative normal velocity at a contact, positive when separating [m/s].
+  pure real(dp) function normal_velocity(bodies, c)
+    type(bodies_t), intent(in) :: bodies
+    type(contact_t), intent(in) :: c
+    real(dp) :: vb(3), va(3)
+    va = point_velocity(bodies, c%a, c%point)
+    vb = point_velocity(bodies, c%b, c%point)
+    normal_velocity = dot_product(c%normal, vb - va)
+  end function normal_velocity
+
+  pure function point_velocity(bodies, i, p) result(vp)
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: p(3)
+    real(dp) :: vp(3)
+    vp = bodies%v(:, i) + cross(bodies%w(:, i), p - bodies%x(:, i))
+  end function point_velocity
+
+  !> Applies the impulses of every contact group to bodies%v and bodies%w.
+  !> velocity_tolerance [m/s]: approach speeds below it count as resting (no reflection);
+  !> max_rounds caps the generalized-reflection loop (then the group is made inelastic).
+  subroutine resolve_impacts(bodies, contacts, velocity_tolerance, max_rounds, stats, err)
+    type(bodies_t), intent(inout) :: bodies
+    type(contact_t), intent(in) :: contacts(:)
+    real(dp), intent(in) :: velocity_tolerance
+    integer, intent(in) :: max_rounds
+    type(impulse_stats_t), intent(inout) :: stats
+    type(error_t), intent(inout) :: err
+    integer, allocatable :: parent(:), group_of_contact(:)
+    integer :: i, root, n_bodies, g
+    logical, allocatable :: done(:)
+
+    n_bodies = bodies%n_owned + bodies%n_ghost
+    allocate (parent(n_bodies))
+    parent = [(i, i=1, n_bodies)]
+    do i = 1, size(contacts)
+      if (moving(bodies, contacts(i)%a) .and. moving(bodies, contacts(i)%b)) &
+        call unite(parent, contacts(i)%a, contacts(i)%b)
+    end do
+    allocate (group_of_contact(size(contacts)), done(size(contacts)))
+    do i = 1, size(contacts)
+      if (moving(bodies, contacts(i)%a)) then
+        group_of_contact(i) = find(parent, contacts(i)%a)
+      else
+        group_of_contact(i) = find(parent, contacts(i)%b)
+      end if
+    end do
+    done = .false.
+    do i = 1, size(contacts)
+      if (done(i)) cycle
+      root = group_of_contact(i)
+      if (.not. moving(bodies, contacts(i)%a) .and. .not. moving(bodies, contacts(i)%b)) then
+        done(i) = .true.
+        cycle
+      end if
+      call solve_group(bodies, pack(contacts, group_of_contact == root), velocity_tolerance, max_rounds, &
+                       stats, err)
+      if (err%failed()) return
+      do g = i, size(contacts)
+        if (group_of_contact(g) == root) done(g) = .true.
+      end do
+    end do
+  end subroutine resolve_impacts
+
+  pure logical function moving(bodies, i)
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    moving = .not. bodies%fixed(i)
+  end function moving
+
+  recursive integer function find(parent, i) result(root)
+    integer, intent(inout) :: parent(:)
+    integer, intent(in) :: i
+    if (parent(i) == i) then
+      root = i
+    else
+      root = find(parent, parent(i))
+      parent(i) = root
+    end if
+  end function find
+
+  subroutine unite(parent, i, j)
+    integer, intent(inout) :: parent(:)
+    integer, intent(in) :: i, j
+    integer :: ri, rj
+    ri = find(parent, i)
+    rj = find(parent, j)
+    if (ri /= rj) parent(max(ri, rj)) = min(ri, rj)
+  end subroutine unite
+
+  !> One connected group: builds the scaled contact matrix E, solves the inelastic
+  !> projection and the elastic reflections, blends them with e.
+  subroutine solve_group(bodies, contacts, velocity_tolerance, max_rounds, stats, err)
+    type(bodies_t), intent(inout) :: bodies
+    type(contact_t), intent(in) :: contacts(:)
+    real(dp), intent(in) :: velocity_tolerance
+    integer, intent(in) :: max_rounds
+    type(impulse_stats_t), intent(inout) :: stats
+    type(error_t), intent(inout) :: err
+    integer, allocatable :: members(:), slot(:)
+    real(dp), allocatable :: e_matrix(:, :), vt0(:), vt_inelastic(:), vt_elastic(:), lambda(:), u(:)
+    logical, allocatable :: approaching(:)
+    integer :: n_members, m, i, k, round, iterations
+    real(dp) :: restitution
+
+    m = size(contacts)
+    restitution = minval(contacts%restitution)
+    ! Local numbering of the moving bodies of the group.
+    allocate (slot(bodies%n_owned + bodies%n_ghost), members(2*m))
+    slot = 0
+    n_members = 0
+    do i = 1, m
+      call enlist(contacts(i)%a)
+      call enlist(contacts(i)%b)
+    end do
+    allocate (e_matrix(6*n_members, m), vt0(6*n_members))
+    e_matrix = 0.0_dp
+    do k = 1, n_members
+      vt0(6*k - 5:6*k) = scaled_velocity(bodies, members(k))
+    end do
+    ! Column i: +row for b (the normal points into b), -row for a; fixed bodies have none.
+    do i = 1, m
+      associate (a => contacts(i)%a, b => contacts(i)%b)
+        if (slot(b) > 0) e_matrix(6*slot(b) - 5:6*slot(b), i) = &
+          scaled_row(bodies, b, contacts(i)%point, contacts(i)%normal)
+        if (slot(a) > 0) e_matrix(6*slot(a) - 5:6*slot(a), i) = e_matrix(6*slot(a) - 5:6*slot(a), i) - &
+                                                                scaled_row(bodies, a, contacts(i)%point, contacts(i)%normal)
+      end associate
+    end do
+
+    ! Inelastic projection over all contacts of the group.
+    allocate (lambda(m))
+    call solve_nnls(e_matrix, -vt0, lambda, iterations, err)
+    if (err%failed()) return
+    stats%nnls_iterations = stats%nnls_iterations + iterations
+    vt_inelastic = vt0 + matmul(e_matrix, lambda)
+
+    ! Generalized reflections (e = 1) on the contacts still approaching.
+    vt_elastic = vt0
+    if (restitution > 0.0_dp) then
+      allocate (approaching(m))
+      do round = 1, max_rounds + 1
+        u = matmul(transpose(e_matrix), vt_elastic)
+        approaching = u < -velocity_tolerance
+        if (.not. any(approaching)) exit
+        if (round > max_rounds) then
+          stats%cap_hits = stats%cap_hits + 1
+          vt_elastic = vt_inelastic
+          exit
+        end if
+        stats%reflection_rounds = stats%reflection_rounds + 1
+        stats%max_rounds_seen = max(stats%max_rounds_seen, round)
+        block
+          real(dp), allocatable :: sub(:, :), sub_lambda(:)
+          sub = e_matrix(:, pack([(i, i=1, m)], approaching))
+          allocate (sub_lambda(size(sub, 2)))
+          call solve_nnls(sub, -2.0_dp*vt_elastic, sub_lambda, iterations, err)
+          if (err%failed()) return
+          stats%nnls_iterations = stats%nnls_iterations + iterations
+          vt_elastic = vt_elastic + matmul(sub, sub_lambda)
+        end block
+      end do
+    end if
+
+    vt0 = (1.0_dp - restitution)*vt_inelastic + restitution*vt_elastic
+    do k = 1, n_members
+      call set_scaled_velocity(bodies, members(k), vt0(6*k - 5:6*k))
+    end do
+    stats%groups = stats%groups + 1
+
+  contains
+
+    subroutine enlist(i)
+      integer, intent(in) :: i
+      if (bodies%fixed(i) .or. slot(i) > 0) return
+      n_members = n_members + 1
+      members(n_members) = i
+      slot(i) = n_members
+    end subroutine enlist
+
+  end subroutine solve_group
+
+  !> M^(1/2) (v, w): sqrt(m) v and R diag(sqrt(I)) R^T w.
+  pure function scaled_velocity(bodies, i) result(vt)
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp) :: vt(6)
+    vt(1:3) = sqrt(bodies%mass(i))*bodies%v(:, i)
+    vt(4:6) = quat_rotate(bodies%q(:, i), sqrt(bodies%inertia(:, i))*quat_rotate_inverse(bodies%q(:, i), bodies%w(:, i)))
+  end function scaled_velocity
+
+  subroutine set_scaled_velocity(bodies, i, vt)
+    type(bodies_t), intent(inout) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: vt(6)
+    bodies%v(:, i) = vt(1:3)/sqrt(bodies%mass(i))
+    bodies%w(:, i) = quat_rotate(bodies%q(:, i), quat_rotate_inverse(bodies%q(:, i), vt(4:6))/sqrt(bodies%inertia(:, i)))
+  end subroutine set_scaled_velocity
+
+  !> M^(-1/2) J_i^T for body i's part of a contact at p with normal n (as seen by the body
+  !> the normal points into): (n / sqrt(m), R diag(I^-1/2) R^T (r x n)).
+  pure function scaled_row(bodies, i, p, n) result(row)
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: p(3), n(3)
+    real(dp) :: row(6)
+    row(1:3) = n/sqrt(bodies%mass(i))
+    row(4:6) = quat_rotate(bodies%q(:, i), quat_rotate_inverse(bodies%q(:, i), cross(p - bodies%x(:, i), n)) &
+                           /sqrt(bodies%inertia(:, i)))
+  end function scaled_row
+
+end module impulse_solver

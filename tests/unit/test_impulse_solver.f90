@@ -1,0 +1,187 @@
+!> Simultaneous frictionless impulses: analytic two-body results, a box landing flat (no
+!> spurious spin), Newton's cradle (only the last ball leaves), and on random contact sets
+!> the invariants: momentum conserved, no energy gained (kept at e = 1), nothing approaching.
+program test_impulse_solver
+  use kinds, only: dp
+  use error_status, only: error_t
+  use quaternion, only: quat_exp, quat_identity
+  use random_stream, only: random_stream_t
+  use body_state, only: bodies_t
+  use impulse_solver
+  use assertions
+  implicit none
+  type(bodies_t) :: bodies
+  type(contact_t), allocatable :: contacts(:)
+  type(impulse_stats_t) :: stats
+  type(error_t) :: err
+  integer :: i, trial, violations(4)
+  real(dp) :: e, ke0, ke1, p0(3), p1(3)
+  type(random_stream_t) :: rng
+  ! Tolerances: every result below is a few flops of exact arithmetic away from its
+  ! closed form, so 1e-12 absolute on O(1) velocities leaves ~1e3 ulps for the QR solves.
+  real(dp), parameter :: tol = 1.0e-12_dp
+
+  ! 1. Head-on equal spheres (mass 1, radius 0.5, touching at x = 0.5), e = 1 and 0.5.
+  do i = 1, 2
+    e = merge(1.0_dp, 0.5_dp, i == 1)
+    call make_spheres(bodies, 2)
+    bodies%x(:, 2) = [1.0_dp, 0.0_dp, 0.0_dp]
+    bodies%v(:, 1) = [1.0_dp, 0.0_dp, 0.0_dp]
+    contacts = [contact_t(a=1, b=2, point=[0.5_dp, 0.0_dp, 0.0_dp], normal=[1.0_dp, 0.0_dp, 0.0_dp], restitution=e)]
+    call resolve_impacts(bodies, contacts, 1.0e-9_dp, 20, stats, err)
+    ! v1' = (1 - e)/2, v2' = (1 + e)/2 for equal masses, v1 = 1, v2 = 0.
+    call check_close(bodies%v(1, 1), (1.0_dp - e)/2.0_dp, 0.0_dp, 'head-on: v1 after', atol=tol)
+    call check_close(bodies%v(1, 2), (1.0_dp + e)/2.0_dp, 0.0_dp, 'head-on: v2 after', atol=tol)
+  end do
+
+  ! 2. Unit cube (mass 1, I = 1/6) landing flat on a fixed floor at v_z = -2: four corner
+  !    contacts, rank-3 contact matrix. e = 1 -> v_z = +2, e = 0.5 -> v_z = +1; no spin.
+  do i = 1, 2
+    e = merge(1.0_dp, 0.5_dp, i == 1)
+    call make_cube_on_floor(bodies, contacts, e)
+    call resolve_impacts(bodies, contacts, 1.0e-9_dp, 20, stats, err)
+    call check(err%ok(), 'cube landing: solver succeeded')
+    call check_close(bodies%v(3, 2), 2.0_dp*e, 0.0_dp, 'cube landing flat: bounces at e v', atol=tol)
+    call check_close(norm2(bodies%w(:, 2)), 0.0_dp, 0.0_dp, 'cube landing flat: no spin', atol=tol)
+    call check_close(norm2(bodies%v(1:2, 2)), 0.0_dp, 0.0_dp, 'cube landing flat: no drift', atol=tol)
+  end do
+
+  ! 3. Newton's cradle: 5 touching balls, e = 1, the first moving at 1 m/s: only the last
+  !    one moves afterwards (to 1e-8, the issue's tolerance; we get round-off).
+  call make_spheres(bodies, 5)
+  contacts = [(contact_t(a=i, b=i + 1, point=[i - 0.5_dp, 0.0_dp, 0.0_dp], normal=[1.0_dp, 0.0_dp, 0.0_dp], &
+                         restitution=1.0_dp), i=1, 4)]
+  do i = 1, 5
+    bodies%x(:, i) = [real(i - 1, dp), 0.0_dp, 0.0_dp]
+  end do
+  bodies%v(:, 1) = [1.0_dp, 0.0_dp, 0.0_dp]
+  call resolve_impacts(bodies, contacts, 1.0e-9_dp, 50, stats, err)
+  call check_close_array(bodies%v(1, :), [0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], 0.0_dp, &
+                         "Newton's cradle: only the last ball moves", atol=1.0e-8_dp)
+  ! Two balls launched into three: the last two leave at 1 m/s.
+  call make_spheres(bodies, 5)
+  do i = 1, 5
+    bodies%x(:, i) = [real(i - 1, dp), 0.0_dp, 0.0_dp]
+  end do
+  bodies%v(:, 1) = [1.0_dp, 0.0_dp, 0.0_dp]
+  bodies%v(:, 2) = [1.0_dp, 0.0_dp, 0.0_dp]
+  call resolve_impacts(bodies, contacts, 1.0e-9_dp, 50, stats, err)
+  call check_close_array(bodies%v(1, :), [0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 1.0_dp], 0.0_dp, &
+                         "cradle, two into three: the last two leave", atol=1.0e-8_dp)
+
+  ! 4. Random contact sets among 6 spinning boxes and a fixed body: invariants, counted
+  !    over 200 scenes. Momentum is only conserved when no contact touches the fixed body.
+  call rng%init(3)
+  violations = 0
+  do trial = 1, 200
+    e = merge(1.0_dp, rng%uniform(), mod(trial, 2) == 0)
+    call make_random_scene(rng, bodies, contacts, e)
+    call totals(bodies, ke0, p0)
+    call resolve_impacts(bodies, contacts, 1.0e-9_dp, 100, stats, err)
+    if (err%failed()) exit
+    call totals(bodies, ke1, p1)
+    if (all(contacts%a /= 7 .and. contacts%b /= 7) .and. norm2(p1 - p0) > 1.0e-12_dp*max(1.0_dp, norm2(p0))) &
+      violations(1) = violations(1) + 1
+    if (ke1 > ke0*(1.0_dp + 1.0e-12_dp)) violations(2) = violations(2) + 1
+    if (e == 1.0_dp .and. abs(ke1 - ke0) > 1.0e-10_dp*ke0) violations(3) = violations(3) + 1
+    if (minval([(normal_velocity(bodies, contacts(i)), i=1, size(contacts))]) < -1.0e-9_dp) &
+      violations(4) = violations(4) + 1
+  end do
+  call check(err%ok(), 'random scenes: solver never failed')
+  call check(violations(1) == 0, 'random scenes: momentum conserved (without the fixed body)')
+  call check(violations(2) == 0, 'random scenes: no energy gained')
+  call check(violations(3) == 0, 'random scenes, e = 1: energy kept to 1e-10')
+  call check(violations(4) == 0, 'random scenes: no contact approaches afterwards')
+  call check(stats%cap_hits == 0, 'random scenes: reflection loop never hit its cap')
+  call test_finish()
+
+contains
+
+  !> n unit spheres (mass 1, radius 0.5) at rest at the origin.
+  subroutine make_spheres(b, n)
+    type(bodies_t), intent(inout) :: b
+    integer, intent(in) :: n
+    call b%allocate(n)
+    b%n_owned = n
+    b%mass = 1.0_dp
+    b%inv_mass = 1.0_dp
+    b%inertia = 0.1_dp
+    b%inv_inertia = 10.0_dp
+  end subroutine make_spheres
+
+  subroutine make_cube_on_floor(b, c, e)
+    type(bodies_t), intent(inout) :: b
+    type(contact_t), allocatable, intent(out) :: c(:)
+    real(dp), intent(in) :: e
+    integer :: k
+    real(dp), parameter :: corners(2, 4) = reshape([0.5_dp, 0.5_dp, -0.5_dp, 0.5_dp, -0.5_dp, -0.5_dp, &
+                                                    0.5_dp, -0.5_dp], [2, 4])
+    call b%allocate(2)
+    b%n_owned = 2
+    b%fixed(1) = .true.
+    b%x(:, 1) = [0.0_dp, 0.0_dp, -1.0_dp]
+    b%mass(2) = 1.0_dp
+    b%inv_mass(2) = 1.0_dp
+    b%inertia(:, 2) = 1.0_dp/6.0_dp
+    b%inv_inertia(:, 2) = 6.0_dp
+    b%x(:, 2) = [0.0_dp, 0.0_dp, 0.5_dp]
+    b%q(:, 2) = quat_identity
+    b%v(:, 2) = [0.0_dp, 0.0_dp, -2.0_dp]
+    allocate (c(4))
+    do k = 1, 4
+      c(k) = contact_t(a=1, b=2, point=[corners(1, k), corners(2, k), 0.0_dp], normal=[0.0_dp, 0.0_dp, 1.0_dp], &
+                       restitution=e)
+    end do
+  end subroutine make_cube_on_floor
+
+  !> Six boxes with random masses, inertias, orientations and velocities, and 1-10 random
+  !> contacts between random pairs (or with a fixed body 7).
+  subroutine make_random_scene(rng, b, c, e)
+    type(random_stream_t), intent(inout) :: rng
+    type(bodies_t), intent(inout) :: b
+    type(contact_t), allocatable, intent(out) :: c(:)
+    real(dp), intent(in) :: e
+    integer :: k, n_contacts, ia, ib
+    call b%allocate(7)
+    b%n_owned = 7
+    do k = 1, 6
+      b%mass(k) = 0.5_dp + rng%uniform()
+      b%inv_mass(k) = 1.0_dp/b%mass(k)
+      b%inertia(:, k) = [0.2_dp + rng%uniform(), 0.2_dp + rng%uniform(), 0.2_dp + rng%uniform()]
+      b%inv_inertia(:, k) = 1.0_dp/b%inertia(:, k)
+      b%x(:, k) = [rng%symmetric(2.0_dp), rng%symmetric(2.0_dp), rng%symmetric(2.0_dp)]
+      b%q(:, k) = quat_exp([rng%symmetric(3.0_dp), rng%symmetric(3.0_dp), rng%symmetric(3.0_dp)])
+      b%v(:, k) = [rng%symmetric(1.0_dp), rng%symmetric(1.0_dp), rng%symmetric(1.0_dp)]
+      b%w(:, k) = [rng%symmetric(1.0_dp), rng%symmetric(1.0_dp), rng%symmetric(1.0_dp)]
+    end do
+    b%fixed(7) = .true.
+    n_contacts = 1 + int(10*rng%uniform())
+    allocate (c(n_contacts))
+    do k = 1, n_contacts
+      ia = 1 + int(7*rng%uniform())
+      ib = 1 + int(6*rng%uniform())
+      if (ib >= ia) ib = ib + 1
+      c(k)%a = ia
+      c(k)%b = ib
+      c(k)%point = 0.5_dp*(b%x(:, ia) + b%x(:, ib)) + [rng%symmetric(0.3_dp), rng%symmetric(0.3_dp), 0.0_dp]
+      c(k)%normal = rng%unit_vector()
+      c(k)%restitution = e
+    end do
+  end subroutine make_random_scene
+
+  subroutine totals(b, ke, p)
+    type(bodies_t), intent(in) :: b
+    real(dp), intent(out) :: ke, p(3)
+    real(dp) :: et, er
+    integer :: k
+    ke = 0.0_dp
+    p = 0.0_dp
+    do k = 1, b%n_owned
+      if (b%fixed(k)) cycle
+      call b%kinetic_energy(k, et, er)
+      ke = ke + et + er
+      p = p + b%mass(k)*b%v(:, k)
+    end do
+  end subroutine totals
+
+end program test_impulse_solver
