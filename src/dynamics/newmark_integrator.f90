@@ -39,7 +39,7 @@ module newmark_integrator
 
   !> Moments this close (relative) are treated as equal: the body is isotropic and needs no
   !> iteration. Treating them as equal turns the true precession into none, an error below
-  !> isotropic_tolerance*|w|*t [rad], i.e. 1e-12 rad after 10^3 turns: round-off level.
+  !> isotropic_tolerance*|w|*t [rad], i.e. 9e-11 rad after 10^3 turns: round-off level.
   real(dp), parameter :: isotropic_tolerance = 64.0_dp*epsilon(1.0_dp)
 
   !> What advance_free_flight did in one call (the caller accumulates and warns).
