@@ -42,13 +42,14 @@ module newmark_integrator
   !> isotropic_tolerance*|w|*t [rad], i.e. 9e-11 rad after 10^3 turns: round-off level.
   real(dp), parameter :: isotropic_tolerance = 64.0_dp*epsilon(1.0_dp)
 
-  !> What advance_free_flight did in one call (the caller accumulates and warns).
+  !> What advance_free_flight did, accumulated over the calls it is passed to (start from
+  !> free_flight_stats_t(), the default values, to reset); the caller reports and warns.
   type :: free_flight_stats_t
-    integer(i8) :: rotation_updates = 0        !< bodies that went through the iteration
-    integer(i8) :: rotation_skipped = 0        !< bodies updated without it (isotropic or w = 0)
-    integer(i8) :: rotation_iterations_total = 0
-    integer :: rotation_iterations_max = 0
-    integer(i8) :: rotation_not_converged = 0  !< updates that hit rotation_max_iterations
+    integer(i8) :: rotation_updates = 0   !< rotation updates that went through the iteration
+    integer(i8) :: rotation_skipped = 0   !< updates without it (torque-free isotropic or at rest)
+    integer(i8) :: iterations_total = 0   !< iterations summed over all updates
+    integer :: iterations_max = 0         !< most iterations one update needed
+    integer(i8) :: not_converged = 0      !< updates that hit rotation_max_iterations
   end type free_flight_stats_t
 
 contains
@@ -205,12 +206,13 @@ contains
 
   !> One free-flight step of length h [s] for every owned, non-fixed body: gravity [m/s^2]
   !> is the only force and there is no torque (contacts come in later). Ghosts are not
-  !> advanced: their owners do it and the halo exchange copies the result.
+  !> advanced: their owners do it and the halo exchange copies the result. stats is added
+  !> to, not reset. config%rotation is not looked at: this is the 'newmark' update.
   subroutine advance_free_flight(bodies, h, gravity, config, stats)
     type(bodies_t), intent(inout) :: bodies
     real(dp), intent(in) :: h, gravity(3)
     type(integrator_config_t), intent(in) :: config
-    type(free_flight_stats_t), intent(out) :: stats
+    type(free_flight_stats_t), intent(inout) :: stats
     real(dp), parameter :: no_torque(3) = 0.0_dp
     integer :: i, iterations
     logical :: converged
@@ -226,9 +228,9 @@ contains
         stats%rotation_skipped = stats%rotation_skipped + 1
       else
         stats%rotation_updates = stats%rotation_updates + 1
-        stats%rotation_iterations_total = stats%rotation_iterations_total + iterations
-        stats%rotation_iterations_max = max(stats%rotation_iterations_max, iterations)
-        if (.not. converged) stats%rotation_not_converged = stats%rotation_not_converged + 1
+        stats%iterations_total = stats%iterations_total + iterations
+        stats%iterations_max = max(stats%iterations_max, iterations)
+        if (.not. converged) stats%not_converged = stats%not_converged + 1
       end if
     end do
   end subroutine advance_free_flight
