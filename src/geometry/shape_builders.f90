@@ -31,7 +31,7 @@ contains
   !> 12 faces.
   subroutine box_mesh(size, m)
     real(dp), intent(in) :: size(3)
-    type(mesh_t), intent(inout) :: m
+    type(mesh_t), intent(out) :: m
     real(dp) :: nodes(3, 8)
     integer :: i, j, k
     ! Node i + 2 j + 4 k + 1 sits at the corner (+-x, +-y, +-z) with - for 0 and + for 1.
@@ -63,7 +63,7 @@ contains
   subroutine cylinder_mesh(radius, length, segments, m)
     real(dp), intent(in) :: radius, length
     integer, intent(in) :: segments
-    type(mesh_t), intent(inout) :: m
+    type(mesh_t), intent(out) :: m
     real(dp), allocatable :: nodes(:, :)
     integer, allocatable :: faces(:, :)
     real(dp) :: angle
@@ -107,7 +107,7 @@ contains
   !> centred at the origin: (0, +-1, +-golden) and its cyclic permutations, scaled.
   subroutine icosahedron_mesh(radius, m)
     real(dp), intent(in) :: radius
-    type(mesh_t), intent(inout) :: m
+    type(mesh_t), intent(out) :: m
     real(dp) :: nodes(3, 12)
     integer :: faces(3, 20)
     if (.not. radius > 0.0_dp) then
@@ -124,7 +124,7 @@ contains
   subroutine icosphere_mesh(radius, level, m)
     real(dp), intent(in) :: radius
     integer, intent(in) :: level
-    type(mesh_t), intent(inout) :: m
+    type(mesh_t), intent(out) :: m
     real(dp), allocatable :: nodes(:, :)
     integer, allocatable :: faces(:, :)
     if (.not. radius > 0.0_dp .or. level < 0 .or. level > max_icosphere_level) then
@@ -140,7 +140,7 @@ contains
   !> at alternate corners of a cube, (1,1,1), (1,-1,-1), (-1,1,-1), (-1,-1,1) scaled.
   subroutine tetrahedron_mesh(edge_length, m)
     real(dp), intent(in) :: edge_length
-    type(mesh_t), intent(inout) :: m
+    type(mesh_t), intent(out) :: m
     real(dp), parameter :: corners(3, 4) = reshape([1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, -1.0_dp, -1.0_dp, &
                                                     -1.0_dp, 1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, 1.0_dp], [3, 4])
     ! Each face is the one opposite the missing vertex, counter-clockwise seen from outside.
@@ -160,7 +160,7 @@ contains
   subroutine torus_mesh(major_radius, minor_radius, n_major, n_minor, m)
     real(dp), intent(in) :: major_radius, minor_radius
     integer, intent(in) :: n_major, n_minor
-    type(mesh_t), intent(inout) :: m
+    type(mesh_t), intent(out) :: m
     real(dp), allocatable :: nodes(:, :)
     integer, allocatable :: faces(:, :)
     real(dp) :: phi, theta, rho
@@ -211,7 +211,7 @@ contains
   !> [0,thickness] x [0,size(2)]. 12 nodes, 20 faces.
   subroutine l_shape_mesh(size, thickness, m)
     real(dp), intent(in) :: size(3), thickness
-    type(mesh_t), intent(inout) :: m
+    type(mesh_t), intent(out) :: m
     real(dp) :: profile(2, 6), nodes(3, 12)
     integer :: faces(3, 20), k, knext, f
     ! Fan of the profile hexagon from its corner 1; all four lie inside the L.
@@ -259,7 +259,7 @@ contains
   subroutine random_blob_mesh(radius, amplitude, level, seed, m)
     real(dp), intent(in) :: radius, amplitude
     integer, intent(in) :: level, seed
-    type(mesh_t), intent(inout) :: m
+    type(mesh_t), intent(out) :: m
     real(dp), allocatable :: nodes(:, :)
     integer, allocatable :: faces(:, :)
     real(dp) :: wave(3, blob_waves), phase(blob_waves), weight(blob_waves), axis(3), magnitude, f
@@ -318,7 +318,7 @@ contains
 
   !> Empty mesh whose source says why nothing was built.
   subroutine invalid(m, why)
-    type(mesh_t), intent(inout) :: m
+    type(mesh_t), intent(out) :: m
     character(len=*), intent(in) :: why
     call m%free()
     allocate (m%nodes(3, 0), m%faces(3, 0))

@@ -20,6 +20,11 @@ module linear_algebra
   !> round-off/gap), so the cluster's eigenspace gets a canonical basis instead.
   real(dp), parameter :: cluster_tolerance = 1.0e-10_dp
 
+  !> Relative margin by which a later coordinate axis must beat an earlier one to be
+  !> picked first when building a cluster's basis (far above round-off, far below any
+  !> geometric difference).
+  real(dp), parameter :: tie_tolerance = 1.0e-8_dp
+
   interface
     !> LAPACK: all eigenvalues (ascending) and, with jobz='V', orthonormal eigenvectors of
     !> a real symmetric matrix.
@@ -96,7 +101,7 @@ contains
       allocate (work(lwork))
       call dsyev('V', 'U', n, vectors, n, values, work, lwork, info)
       if (info < 0) then
-        call err%set(ERR_INTERNAL, 'symmetric_eigen: LAPACK dsyev rejected argument '//str(-info))
+        call err%set(ERR_NUMERIC, 'symmetric_eigen: LAPACK dsyev rejected argument '//str(-info))
         return
       else if (info > 0) then
         call err%set(ERR_NUMERIC, 'symmetric_eigen: LAPACK dsyev did not converge ('//str(info)// &
@@ -173,7 +178,9 @@ contains
   !> Replaces LAPACK's arbitrary choices by canonical ones: a single eigenvector gets its
   !> largest component positive; a cluster's eigenspace gets the pivoted Gram-Schmidt basis
   !> of its projector P = V V^T (columns P e_j taken largest remaining norm first; P e_j has
-  !> a positive j-th component, which fixes the sign too).
+  !> a positive j-th component, which fixes the sign too). Norms equal to tie_tolerance
+  !> count as equal and the lower index wins: symmetric bodies produce exact ties (an
+  !> axisymmetric body along z: |P e1| = |P e2|), which round-off must not decide.
   pure subroutine canonical_vectors(values, vectors)
     real(dp), intent(in) :: values(:)
     real(dp), intent(inout) :: vectors(:, :)
@@ -207,7 +214,7 @@ contains
               candidate = candidate - dot_product(vectors(:, i), candidate)*vectors(:, i)
             end do
             candidate_norm = norm2(candidate)
-            if (candidate_norm > best_norm) then
+            if (candidate_norm > best_norm*(1.0_dp + tie_tolerance)) then
               best_norm = candidate_norm
               best = candidate
               pivot = j

@@ -20,6 +20,7 @@ program test_linear_algebra
   call test_rotated()
   call test_degenerate_pair()
   call test_multiple_of_identity()
+  call test_axisymmetric_near_diagonal()
   call test_general_n()
   call test_errors()
   call test_finish()
@@ -150,6 +151,23 @@ contains
     call eigen(diag3([7.0_dp, 7.0_dp, 7.0_dp]), values, vectors, '7 I')
     call check(all(vectors == identity(3)) .and. all(values == 7.0_dp), '7 I: identity frame, values 7')
   end subroutine test_multiple_of_identity
+
+  !> Axisymmetric about z with off-diagonal terms just above the diagonal test (~4e-12
+  !> relative, so LAPACK runs): the (tilted) x-y plane is one eigenspace, and its canonical
+  !> basis must start with ~e1 (a near-tie |P e1| ~ |P e2| to ~1e-22, broken by index, not
+  !> by round-off: with these numbers a plain largest-norm pivot picks e2 first). The frame
+  !> is the identity up to the ~1e-11 perturbation (1e-10 allows a factor 10).
+  subroutine test_axisymmetric_near_diagonal()
+    real(dp) :: a(3, 3), values(3), vectors(3, 3)
+    a = diag3([2.0_dp, 2.0_dp, 5.0_dp])
+    a(1, 3) = 1.3e-11_dp; a(3, 1) = a(1, 3)
+    a(2, 3) = -2.1e-11_dp; a(3, 2) = a(2, 3)
+    a(1, 2) = a(1, 3)*a(2, 3); a(2, 1) = a(1, 2)
+    call eigen(a, values, vectors, 'axisymmetric near-diagonal')
+    call check_close_array(reshape(vectors, [9]), reshape(identity(3), [9]), 0.0_dp, &
+                           'axisymmetric near-diagonal: identity-aligned frame', atol=1.0e-10_dp)
+    call check_decomposition(a, values, vectors, 'axisymmetric near-diagonal')
+  end subroutine test_axisymmetric_near_diagonal
 
   !> n = 4 through LAPACK: a tridiagonal (1D Laplacian) with known eigenvalues
   !> 2 - 2 cos(k pi/5), k = 1..4.
