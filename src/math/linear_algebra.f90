@@ -10,8 +10,8 @@ module linear_algebra
 
   !> A symmetric matrix whose off-diagonal terms are all within this factor of its largest
   !> diagonal term is taken as diagonal: its eigenvectors are then the coordinate axes
-  !> (so a box's principal frame is its own frame). Ignoring off-diagonal terms of relative
-  !> size eps moves each eigenvalue by at most (n-1) eps relative (Gershgorin).
+  !> (so a box's principal axes are its own axes). Ignoring off-diagonal terms of relative
+  !> size eps moves each eigenvalue by at most (n-1) eps relative (Weyl's inequality).
   real(dp), parameter :: diagonal_tolerance = 1.0e-12_dp
   !> Eigenvalues closer than this factor of the largest |eigenvalue| are treated as one
   !> (degenerate) cluster. Inertia tensors integrated over a mesh carry round-off of order
