@@ -55,7 +55,8 @@ contains
   !> Reads a closed triangle surface from path; the format follows the extension
   !> (case-insensitive). Coordinates are multiplied by scale (default 1). On success m has
   !> its topology built, outward normals and m%source = path; on error m is empty and err
-  !> says which file, which line (syntax) or which edge (topology) is wrong.
+  !> says which file, which line (syntax) or which edge (topology) is wrong; err is only
+  !> written on failure.
   subroutine read_mesh_file(path, m, err, scale, stats)
     character(len=*), intent(in) :: path
     type(mesh_t), intent(out) :: m
@@ -65,6 +66,7 @@ contains
     character(len=:), allocatable :: file, ext, text
     type(soup_t) :: s
     type(mesh_read_stats_t) :: info
+    type(error_t) :: e   ! local, so that an error the caller already holds does not stop the read
     integer :: dot, slash
 
     file = trim(path)
@@ -84,23 +86,32 @@ contains
       end if
     end if
 
-    call read_whole_file(file, text, err)
-    if (err%failed()) return
+    call read_whole_file(file, text, e)
+    if (e%failed()) then
+      call err%set(e%code, e%message)
+      return
+    end if
     select case (ext)
     case ('.obj')
-      call parse_obj(text, file, s, err)
+      call parse_obj(text, file, s, e)
     case ('.stl')
-      call parse_stl(text, file, s, err)
+      call parse_stl(text, file, s, e)
     case ('.off')
-      call parse_off(text, file, s, err)
+      call parse_off(text, file, s, e)
     end select
     deallocate (text)
-    if (err%failed()) return
+    if (e%failed()) then
+      call err%set(e%code, e%message)
+      return
+    end if
 
     if (present(scale)) s%verts(:, 1:s%nv) = scale*s%verts(:, 1:s%nv)
-    call soup_to_mesh(s, file, m, info, err)
-    if (err%failed()) call m%free()
+    call soup_to_mesh(s, file, m, info, e)
     if (present(stats)) stats = info
+    if (e%failed()) then
+      call m%free()
+      call err%set(e%code, e%message)
+    end if
   end subroutine read_mesh_file
 
   !> The whole file as one string (stream access: byte exact, any line length).
@@ -305,14 +316,20 @@ contains
         return
       end if
     end if
+    ! ASCII: begins with "solid" and holds no NUL byte (binary float data nearly always
+    ! does, so a truncated binary file beginning with "solid" is reported as such).
     i = verify(text(1:min(len(text), 4096)), ' '//achar(9)//achar(10)//achar(13))
     if (i > 0 .and. i + 4 <= len(text)) then
-      if (lower(text(i:i + 4)) == 'solid') then
+      if (lower(text(i:i + 4)) == 'solid' .and. index(text, achar(0)) == 0) then
         call parse_stl_ascii(text, path, s, err)
         return
       end if
     end if
-    if (n_announced >= 0) then
+    if (n_announced >= 0 .and. index(text, achar(0)) > 0) then
+      call err%set(ERR_MESH, "mesh file '"//path//"' is not a valid STL file: it holds binary data but its " &
+                   //'header announces '//str(n_announced)//' triangles, i.e. '//str(84_int64 + 50_int64*n_announced) &
+                   //' bytes, and the file has '//str(len(text))//' bytes (truncated or corrupt)')
+    else if (n_announced >= 0) then
       call err%set(ERR_MESH, "mesh file '"//path//"' is not a valid STL file: it does not begin with 'solid' " &
                    //"(ASCII) and as binary its header announces "//str(n_announced)//' triangles, i.e. ' &
                    //str(84_int64 + 50_int64*n_announced)//' bytes, but the file has '//str(len(text))//' bytes')
