@@ -698,8 +698,9 @@ contains
   !> the index of the first vertex within tol of vertex i, itself for the first of its
   !> cluster. Node numbers thus stay the file's vertex numbers (messages can be checked
   !> against the file); merged and unreferenced vertices become unused nodes, which
-  !> mesh_topology drops. A spatial hash on cells of size tol: any vertex within tol of a
-  !> kept vertex lies in one of the 27 cells around it. Each vertex joins the first kept
+  !> mesh_topology drops. A spatial hash on cells of size 2 tol: a kept vertex within tol
+  !> of p lies in p's cell or, along each axis, the neighbour on the side of the cell
+  !> half p is in, so 8 cells are searched (not 27). Each vertex joins the first kept
   !> vertex found within tol (greedy: a chain of vertices each within tol of the next is
   !> not merged end to end). Unreferenced vertices get 0 and are not hashed.
   subroutine weld(verts, referenced, lower, tol, node_of, n_kept)
@@ -708,9 +709,9 @@ contains
     integer, intent(out) :: node_of(:)
     integer, intent(out) :: n_kept
     integer, allocatable :: head(:), next(:)
-    integer(int64) :: cell(3), mask, table_size, slot
+    integer(int64) :: cell(3), mask, table_size, slot, side(3)
     integer :: i, r, found, dx, dy, dz, nv
-    real(dp) :: p(3), tol2
+    real(dp) :: p(3), q(3), tol2, cell_size
 
     nv = size(verts, 2)
     node_of = 0
@@ -735,16 +736,19 @@ contains
     allocate (head(0:table_size - 1), next(nv))
     head = 0
     tol2 = tol*tol
+    cell_size = 2.0_dp*tol
     do i = 1, nv
       if (.not. referenced(i)) cycle
       p = verts(:, i)
-      ! Cell indices stay below 1/weld_tolerance ~ 1e9 < 2^31: no overflow in the hash.
-      cell = floor((p - lower)/tol, kind=int64)
+      ! Cell indices stay below 1/(2 weld_tolerance) ~ 5e8 < 2^31: no overflow in the hash.
+      q = (p - lower)/cell_size
+      cell = floor(q, kind=int64)
+      side = merge(-1_int64, 1_int64, q - real(cell, dp) < 0.5_dp)
       found = 0
-      search: do dz = -1, 1
-        do dy = -1, 1
-          do dx = -1, 1
-            r = head(cell_hash(cell + [dx, dy, dz], mask))
+      search: do dz = 0, 1
+        do dy = 0, 1
+          do dx = 0, 1
+            r = head(cell_hash(cell + [dx, dy, dz]*side, mask))
             do while (r /= 0)
               if (sum((verts(:, r) - p)**2) <= tol2) then
                 found = r
