@@ -385,7 +385,7 @@ contains
     type(soup_t), intent(out) :: s
     type(error_t), intent(inout) :: err
     integer :: pos, line_no, t1, t2, k, j, n_solids
-    real(dp) :: xyz(3), corners(3, 3)
+    real(dp) :: corners(3, 3)
     logical :: ok
 
     call soup_reserve(s, 3072, 1024)
@@ -417,7 +417,11 @@ contains
           return
         end if
         if (.not. keyword('normal')) return
-        if (.not. numbers(xyz)) return     ! the stored normal is not used
+        ! The stored normal is not used (orientation comes from the vertex order), and some
+        ! exporters write nan for degenerate facets: its three tokens are skipped unread.
+        do k = 1, 3
+          call next_stream_token(text, pos, line_no, t1, t2)
+        end do
         if (.not. keyword('outer')) return
         if (.not. keyword('loop')) return
         do j = 1, 3

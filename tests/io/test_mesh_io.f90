@@ -240,7 +240,8 @@ contains
     close (u)
   end subroutine write_soup_obj
 
-  !> Facets with reversed vertex order (inward normals), upper-case keywords in one facet.
+  !> Facets with reversed vertex order (inward normals), upper-case keywords in one facet,
+  !> a nan normal in another (normals are not used).
   subroutine write_ascii_stl(path)
     character(len=*), intent(in) :: path
     integer :: u, t, j
@@ -249,6 +250,8 @@ contains
     do t = 1, 12
       if (t == 5) then
         write (u, '(a)') '  FACET NORMAL 0 0 0', '    OUTER LOOP'
+      else if (t == 7) then
+        write (u, '(a)') '  facet normal nan nan nan', '    outer loop'   ! seen in the wild, ignored
       else
         write (u, '(a)') '  facet normal 0 0 0', '    outer loop'
       end if
