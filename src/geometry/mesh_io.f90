@@ -20,8 +20,9 @@ module mesh_io
 
   character(len=*), parameter :: supported_mesh_extensions = &
                                  '.obj (Wavefront), .stl (binary or ASCII), .off (Object File Format)'
-  !> Vertices closer than this times the bounding-box diagonal are one node. Far below any
-  !> modelling detail and far above the round-off of coordinates printed with 6+ digits.
+  !> Vertices closer than this times the bounding-box diagonal are one node: far above
+  !> double round-off (1e-16), far below the spacing of vertices printed with 6 to 8
+  !> significant digits, so copies of one corner merge and distinct corners never do.
   real(dp), parameter :: weld_tolerance = 1.0e-9_dp
   !> Triangles with area below this times diagonal^2 carry no surface: they are dropped.
   real(dp), parameter :: degenerate_area_tolerance = 1.0e-14_dp
