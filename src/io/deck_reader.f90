@@ -1570,29 +1570,76 @@ contains
     end if
   end subroutine require_positive
 
-  !> Checks across bodies: distinct names, a total count that fits an integer.
+  !> Checks across bodies: distinct names, a total count that fits an integer. Names are
+  !> compared after sorting (n log n: decks written by tools may hold many &body groups).
   subroutine check_bodies_together(src, deck, err)
     type(source_t), intent(in) :: src
     type(deck_t), intent(in) :: deck
     type(error_t), intent(inout) :: err
-    integer :: k, j
+    integer, allocatable :: order(:)
+    integer :: k, first, second
     integer(i8) :: total
+    if (deck%n_bodies == 0) return
+    order = [(k, k=1, deck%n_bodies)]
+    call sort_by_name(deck%bodies, order)
+    do k = 2, deck%n_bodies
+      if (deck%bodies(order(k))%name == deck%bodies(order(k - 1))%name) then
+        first = min(order(k), order(k - 1))
+        second = max(order(k), order(k - 1))
+        call err%set(ERR_INPUT, src%path//':'//str(deck%bodies(second)%line)//': &body #'//str(second)//' '''// &
+                     trim(deck%bodies(second)%name)//''': name '''//trim(deck%bodies(second)%name)// &
+                     ''' is already used by &body #'//str(first)//' (line '//str(deck%bodies(first)%line)//')')
+        return
+      end if
+    end do
     total = 0
     do k = 1, deck%n_bodies
-      do j = 1, k - 1
-        if (deck%bodies(j)%name == deck%bodies(k)%name) then
-          call err%set(ERR_INPUT, src%path//':'//str(deck%bodies(k)%line)//': &body #'//str(k)//' '''// &
-                       trim(deck%bodies(k)%name)//''': name '''//trim(deck%bodies(k)%name)// &
-                       ''' is already used by &body #'//str(j)//' (line '//str(deck%bodies(j)%line)//')')
-          return
-        end if
-      end do
       total = total + product(int(deck%bodies(k)%copies, i8))
     end do
     if (total > int(huge(0), i8)) then
       call err%set(ERR_INPUT, src%path//': the deck describes '//str(total)//' bodies, more than '//str(huge(0)))
     end if
   end subroutine check_bodies_together
+
+  !> Stable bottom-up merge sort of order(:) by bodies(order(:))%name.
+  subroutine sort_by_name(bodies, order)
+    type(body_spec_t), intent(in) :: bodies(:)
+    integer, intent(inout) :: order(:)
+    integer, allocatable :: work(:)
+    integer :: width, lo, mid, hi, i, j, k, n
+    logical :: take_left
+    n = size(order)
+    allocate (work(n))
+    width = 1
+    do while (width < n)
+      lo = 1
+      do while (lo <= n)
+        mid = min(lo + width - 1, n)
+        hi = min(lo + 2*width - 1, n)
+        i = lo
+        j = mid + 1
+        do k = lo, hi
+          if (i > mid) then
+            take_left = .false.
+          else if (j > hi) then
+            take_left = .true.
+          else
+            take_left = .not. llt(bodies(order(j))%name, bodies(order(i))%name)
+          end if
+          if (take_left) then
+            work(k) = order(i)
+            i = i + 1
+          else
+            work(k) = order(j)
+            j = j + 1
+          end if
+        end do
+        lo = hi + 1
+      end do
+      order = work
+      width = 2*width
+    end do
+  end subroutine sort_by_name
 
   ! ---------------------------------------------------------------------------------------
   ! Paths

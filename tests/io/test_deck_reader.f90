@@ -14,6 +14,7 @@ program test_deck_reader
   implicit none
   character(len=4096) :: cwd_buffer
   character(len=:), allocatable :: cwd
+  character(len=120) :: f5(5)
 
   call execute_command_line('mkdir -p sub/meshes', wait=.true.)
   call write_lines('sub/meshes/cube.obj', [character(len=40) :: 'v 0 0 0'])
@@ -24,6 +25,7 @@ program test_deck_reader
   call test_defaults()
   call test_round_trip()
   call test_bad_decks()
+  call test_syntax_edges()
   call test_finish()
 
 contains
@@ -245,6 +247,57 @@ contains
     close (unit_a)
     close (unit_b)
   end function same_text_after_header
+
+  !> Syntax corners: CR LF line ends, tabs, upper case, '!' and '/' inside quotes, a slash
+  !> right after a value, an empty group, an empty deck, values continued on the next line.
+  subroutine test_syntax_edges()
+    type(deck_t) :: deck
+    type(error_t) :: err
+    integer :: unit
+    character(len=*), parameter :: crlf = achar(13)//achar(10)
+    open (newunit=unit, file='edges.nml', access='stream', form='unformatted', action='write', status='replace')
+    write (unit) '&RUN T_END=3.0 DT_MAX=0.5/'//crlf, &
+      '! title = ''x'''//crlf, &
+      '&Output'//achar(9)//'dir = ''a!b/c'', interval'//achar(9)//'= 0.1 /'//crlf, &
+      '&contact /'//crlf, &
+      '&body shape = "box", size =', crlf, '  1.0', crlf, '  2.0 3.0 density=1 /'
+    close (unit)
+    call read_deck('edges.nml', deck, err)
+    call check(err%ok(), 'edges deck reads: '//message(err))
+    if (err%failed()) return
+    call check(deck%run%t_end == 3.0_dp .and. deck%run%dt_max == 0.5_dp, 'upper case names, slash after value')
+    call check(deck%run%title == 'ricochet run', 'commented-out title ignored')
+    call check(deck%output%dir == cwd//'/a!b/c', '! and / inside quotes kept: '//trim(deck%output%dir))
+    call check(deck%output%interval == 0.1_dp, 'tab as blank')
+    call check(deck%contact%restitution == 0.5_dp, 'empty group keeps defaults')
+    call check(all(deck%bodies(1)%size == [1.0_dp, 2.0_dp, 3.0_dp]), 'values continued over lines')
+
+    call write_lines('empty.nml', [character(len=1) :: ' '])
+    call err%clear()
+    call read_deck('empty.nml', deck, err)
+    f5(1) = 'empty.nml: no &run group'
+    call check_error(err%code, message(err), f5(1:1), 'empty deck')
+
+    ! The shortest text that reads back: 0.1 + 0.2 is not 0.3 and must not be written so.
+    call write_lines('digits.nml', [character(len=100) :: '&run t_end = 0.30000000000000004, dt_max = 0.1 /', &
+      '&body shape = ''sphere'', radius = 1e-300, density = 1.7976931348623157e307 /'])
+    call err%clear()
+    call read_deck('digits.nml', deck, err)
+    call check(err%ok(), 'digits deck reads: '//message(err))
+    if (err%failed()) return
+    open (newunit=unit, file='digits_effective.nml', action='write', status='replace')
+    call write_effective_deck(deck, unit)
+    close (unit)
+    block
+      type(deck_t) :: again
+      call read_deck('digits_effective.nml', again, err)
+      call check(err%ok(), 'digits effective deck reads: '//message(err))
+      if (err%failed()) return
+      call check(again%run%t_end == 0.1_dp + 0.2_dp, '0.1 + 0.2 survives the round trip')
+      call check(again%bodies(1)%radius == 1.0e-300_dp .and. again%bodies(1)%density == 1.7976931348623157e307_dp, &
+                 'extreme magnitudes survive the round trip')
+    end block
+  end subroutine test_syntax_edges
 
   !> Writes a bad deck, reads it, and checks the error holds every fragment.
   subroutine bad(name, lines, fragments)
