@@ -86,7 +86,7 @@ module deck_reader
 
   type :: token_t
     integer :: kind = 0
-    character(len=:), allocatable :: text    !< words lower case; strings without quotes
+    character(len=:), allocatable :: text    !< words as written (blanks removed); strings unquoted
     integer :: line = 0
   end type token_t
 
@@ -121,6 +121,9 @@ module deck_reader
 contains
 
   !> Reads the deck at path, checks it and fills deck (defaults where nothing is given).
+  !> On failure err holds one message '<path>:<line>: <group>: <what>' (code ERR_INPUT, or
+  !> ERR_IO if the file cannot be read) and deck is incomplete. err must not hold a failure
+  !> on entry (the call then returns at once).
   !> Relative paths in the deck (mesh_file, output dir) are stored resolved against the
   !> deck's folder, as absolute paths.
   subroutine read_deck(path, deck, err)
@@ -130,6 +133,7 @@ contains
     type(source_t) :: src
     integer :: k, i_body
 
+    if (err%failed()) return   ! an error already pending is not overwritten
     call load_source(path, src, err)
     if (err%failed()) return
     call scan_groups(src, err)
@@ -437,12 +441,13 @@ contains
 
   !> Splits the group's text (after '&name', up to '/') into words, quoted strings, '=' and ','.
   subroutine tokenize(g, tokens, n_tokens, err)
-    type(group_input_t), intent(in) :: g
+    type(group_input_t), intent(inout) :: g
     type(token_t), allocatable, intent(out) :: tokens(:)
     integer, intent(out) :: n_tokens
     type(error_t), intent(inout) :: err
     character :: ch
     integer :: r, c, e, depth, q_end, width, line
+    character(len=:), allocatable :: word
     allocate (tokens(16))
     n_tokens = 0
     width = len(g%text)
@@ -481,7 +486,11 @@ contains
             call fail_at(g, err, line, 'unmatched parenthesis in '''//trim(g%text(r)(c:e - 1))//'''')
             return
           end if
-          call push_token(tokens, n_tokens, T_WORD, lower(without_blanks(g%text(r)(c:e - 1))), line)
+          word = without_blanks(g%text(r)(c:e - 1))
+          ! gfortran's READ rejects blanks inside a subscript ('size( 3 )'): hand it the
+          ! packed form, in place, so that lines stay where they are.
+          if (len(word) < e - c) g%text(r)(c:e - 1) = word
+          call push_token(tokens, n_tokens, T_WORD, word, line)
           c = e
         end select
       end do
@@ -588,7 +597,7 @@ contains
     type(var_spec_t) :: spec
     character(len=len(g%specs%name)), allocatable :: names(:)
 
-    designator = tokens(i_name)%text
+    designator = lower(tokens(i_name)%text)
     line = tokens(i_name)%line
     if (index(designator, '%') > 0) then
       call fail_at(g, err, line, ''''//designator//''': derived-type components (''%'') do not exist in a deck')
@@ -719,7 +728,7 @@ contains
         call fail_at(g, err, line, name//' needs a number, got the text '''//text//'''')
         return
       end if
-      status = real_literal_status(text)
+      status = real_literal_status(lower(text))
       if (status == 1) then
         call fail_at(g, err, line, name//' needs a number, got '''//text//'''')
       else if (status == 2) then
@@ -739,7 +748,7 @@ contains
         call fail_at(g, err, line, name//' = '//text//' is out of range for an integer')
       end if
     case (V_LOGICAL)
-      if (token_kind == T_STRING .or. .not. is_logical_literal(text)) then
+      if (token_kind == T_STRING .or. .not. is_logical_literal(lower(text))) then
         call fail_at(g, err, line, name//' needs .true. or .false., got '''//text//'''')
       end if
     end select
@@ -899,6 +908,8 @@ contains
       call fail_at(g, err, word_line(g, word), 'wrong type of value for '''//word//''' ('//msg//')')
     else if (index(msg, 'Qualifier for a scalar') > 0) then
       call fail_at(g, err, word_line(g, word), word//' is a single value: no subscript')
+    else if (index(msg, 'index triplet') > 0) then
+      call fail_at(g, err, word_line(g, word), 'bad subscript for '''//word//'''')
     else if (index(msg, 'out of range for namelist variable') > 0) then
       call fail_at(g, err, word_line(g, word), 'subscript out of range for '''//word//'''')
     else if (index(msg, 'Equal sign must follow namelist object name') > 0) then
@@ -1297,7 +1308,7 @@ contains
     label_name = 'body'//str(index)
     do i = 1, n_tokens - 2
       if (tokens(i)%kind == T_WORD .and. tokens(i + 1)%kind == T_EQUALS .and. tokens(i + 2)%kind == T_STRING) then
-        if (tokens(i)%text == 'name') label_name = trim(tokens(i + 2)%text)
+        if (lower(tokens(i)%text) == 'name') label_name = trim(tokens(i + 2)%text)
       end if
     end do
     g%label = '&body #'//str(index)//' '''//label_name//''''
@@ -1732,24 +1743,32 @@ contains
     character(len=*), intent(in) :: text
     character, intent(in) :: quote
     character(len=:), allocatable :: plain
-    integer :: c
-    plain = ''
+    character(len=len(text)) :: buffer
+    integer :: c, n
+    n = 0
     c = 1
     do while (c <= len(text))
-      plain = plain//text(c:c)
+      n = n + 1
+      buffer(n:n) = text(c:c)
       if (text(c:c) == quote) c = c + 1   ! a doubled quote is one quote
       c = c + 1
     end do
+    plain = buffer(1:n)
   end function unquote
 
   pure function without_blanks(text) result(packed)
     character(len=*), intent(in) :: text
     character(len=:), allocatable :: packed
-    integer :: c
-    packed = ''
+    character(len=len(text)) :: buffer
+    integer :: c, n
+    n = 0
     do c = 1, len(text)
-      if (text(c:c) /= ' ') packed = packed//text(c:c)
+      if (text(c:c) /= ' ') then
+        n = n + 1
+        buffer(n:n) = text(c:c)
+      end if
     end do
+    packed = buffer(1:n)
   end function without_blanks
 
   !> Shortest decimal text that reads back as exactly x ('0.25', '9.81', '1.0e-14').

@@ -249,7 +249,8 @@ contains
   end function same_text_after_header
 
   !> Syntax corners: CR LF line ends, tabs, upper case, '!' and '/' inside quotes, a slash
-  !> right after a value, an empty group, an empty deck, values continued on the next line.
+  !> right after a value, an empty group, an empty deck, values continued on the next line,
+  !> blanks inside subscripts.
   subroutine test_syntax_edges()
     type(deck_t) :: deck
     type(error_t) :: err
@@ -260,7 +261,8 @@ contains
       '! title = ''x'''//crlf, &
       '&Output'//achar(9)//'dir = ''a!b/c'', interval'//achar(9)//'= 0.1 /'//crlf, &
       '&contact /'//crlf, &
-      '&body shape = "box", size =', crlf, '  1.0', crlf, '  2.0 3.0 density=1 /'
+      '&body shape = "box", size =', crlf, '  1.0', crlf, '  2.0 3.0 density=1 /', crlf, &
+      '&body shape = ''box'', size(1 : 2) = 4 5, size( 3 ) = 6, mass = 1 /'
     close (unit)
     call read_deck('edges.nml', deck, err)
     call check(err%ok(), 'edges deck reads: '//message(err))
@@ -271,6 +273,7 @@ contains
     call check(deck%output%interval == 0.1_dp, 'tab as blank')
     call check(deck%contact%restitution == 0.5_dp, 'empty group keeps defaults')
     call check(all(deck%bodies(1)%size == [1.0_dp, 2.0_dp, 3.0_dp]), 'values continued over lines')
+    call check(all(deck%bodies(2)%size == [4.0_dp, 5.0_dp, 6.0_dp]), 'blanks inside subscripts')
 
     call write_lines('empty.nml', [character(len=1) :: ' '])
     call err%clear()
