@@ -460,6 +460,51 @@ contains
       '&body shape = ''sphere'', radius = 1, density = 1, name = '''//repeat('x', 70)//''' /'], &
       [character(len=60) :: 'bad_long_name.nml:2:', '&body #1', 'name is longer than 64 characters'])
 
+    call bad('bad_scale.nml', [character(len=100) :: run, &
+      '&body name = ''m'', shape = ''mesh'', mesh_file = ''sub/meshes/cube.obj'', scale = 0, density = 1 /'], &
+      [character(len=60) :: 'bad_scale.nml:2:', '&body #1 ''m''', 'scale must be > 0'])
+    call bad('bad_no_mesh_file.nml', [character(len=100) :: run, '&body name = ''m'', shape = ''mesh'', density = 1 /'], &
+      [character(len=60) :: 'bad_no_mesh_file.nml:2:', '&body #1 ''m''', 'a mesh needs mesh_file'])
+    call bad('bad_segments_sphere.nml', [character(len=100) :: run, ball, &
+      '&body name = ''s'', shape = ''sphere'', radius = 1, density = 1,', ' segments = 8 /'], &
+      [character(len=60) :: 'bad_segments_sphere.nml:4:', '&body #2 ''s''', 'segments does not apply to shape ''sphere'''])
+    call bad('bad_density.nml', [character(len=100) :: run, '&body shape = ''sphere'', radius = 1,', ' density = 0 /'], &
+      [character(len=60) :: 'bad_density.nml:3:', '&body #1 ''body1''', 'density must be > 0 kg/m^3'])
+    call bad('bad_jitter_angle.nml', [character(len=100) :: run, &
+      '&body name = ''j'', shape = ''sphere'', radius = 1, density = 1, seed = 1, jitter_angle = 4 /'], &
+      [character(len=60) :: 'bad_jitter_angle.nml:2:', '&body #1 ''j''', 'jitter_angle must be in [0, pi]'])
+    call bad('bad_seed.nml', [character(len=100) :: run, &
+      '&body name = ''j'', shape = ''sphere'', radius = 1, density = 1, seed = -3 /'], &
+      [character(len=60) :: 'bad_seed.nml:2:', '&body #1 ''j''', 'seed must be >= 0'])
+    call bad('bad_spacing_negative.nml', [character(len=100) :: run, &
+      '&body name = ''g'', shape = ''sphere'', radius = 1, density = 1, spacing = 1, -1, 1 /'], &
+      [character(len=60) :: 'bad_spacing_negative.nml:2:', '&body #1 ''g''', 'spacing(2) must be >= 0 m'])
+    call bad('bad_checkpoint.nml', [character(len=100) :: run, ball, '&output checkpoint_interval = -1 /'], &
+      [character(len=60) :: 'bad_checkpoint.nml:3:', '&output:', 'checkpoint_interval must be >= 0'])
+    call bad('bad_progress.nml', [character(len=100) :: run, ball, '&output', ' progress_interval = 0 /'], &
+      [character(len=60) :: 'bad_progress.nml:4:', '&output:', 'progress_interval must be > 0'])
+    call bad('bad_blank_dir.nml', [character(len=100) :: run, ball, '&output dir = '' '' /'], &
+      [character(len=60) :: 'bad_blank_dir.nml:3:', '&output:', 'dir must not be blank'])
+    call bad('bad_tolerance.nml', [character(len=100) :: run, ball, '&integrator rotation_tolerance = 0 /'], &
+      [character(len=60) :: 'bad_tolerance.nml:3:', '&integrator:', 'rotation_tolerance must be in (0, 1)'])
+    call bad('bad_integer_range.nml', [character(len=100) :: run, ball, '&integrator', &
+      '  rotation_max_iterations = 99999999999 /'], &
+      [character(len=60) :: 'bad_integer_range.nml:4:', '&integrator:', 'out of range for an integer'])
+    call bad('bad_repeat.nml', [character(len=100) :: run, &
+      '&body shape = ''sphere'', radius = 1, density = 1, position = 0*1 /'], &
+      [character(len=60) :: 'bad_repeat.nml:2:', '&body #1 ''body1''', 'bad repeat count in ''0*1'''])
+    call bad('bad_null_repeat.nml', [character(len=100) :: run, &
+      '&body shape = ''sphere'', radius = 1, density = 1, position = 3* /'], &
+      [character(len=60) :: 'bad_null_repeat.nml:2:', '&body #1 ''body1''', '''3*'' without a value'])
+    call bad('bad_component.nml', [character(len=100) :: '&run t_end = 1, dt_max = 0.1, run%title = ''x'' /', ball], &
+      [character(len=60) :: 'bad_component.nml:1:', '&run:', 'derived-type components'])
+    call bad('bad_misplaced_equals.nml', [character(len=100) :: '&run t_end = 1, dt_max = 0.1, gravity = 0, 0, = 1 /', &
+      ball], [character(len=60) :: 'bad_misplaced_equals.nml:1:', '&run:', 'misplaced ''='' in the values of ''gravity'''])
+    call bad('bad_no_value.nml', [character(len=100) :: '&run dt_max = 0.1, t_end = /', ball], &
+      [character(len=60) :: 'bad_no_value.nml:1:', '&run:', '''t_end ='' has no value'])
+    call bad('bad_amp.nml', [character(len=100) :: run, '& shape = 1 /', ball], &
+      [character(len=60) :: 'bad_amp.nml:2:', '''&'' without a group name'])
+
     ! A deck that does not exist: an I/O error naming it.
     call err%clear()
     call read_deck('no_such_deck.nml', deck, err)
