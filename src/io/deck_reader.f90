@@ -780,7 +780,6 @@ contains
       if (first_nonzero == 0 .and. text(i:i) /= '0') first_nonzero = n_int
       i = i + 1
     end do
-    if (first_nonzero > 0) e10 = 0   ! set below once the integer digits are counted
     n_frac = 0
     if (i <= n) then
       if (text(i:i) == '.') then
