@@ -210,10 +210,8 @@ contains
       ! sinh(tau0) = sn/cn = (ub/beta)/(ua/alpha).
       self%tau0 = asinh((ub/beta)/(ua/alpha))
     end if
-    self%g0 = 0.0_dp
-    call local_state(self, 0.0_dp, q_l, m_p, g)
+    call local_state(self, 0.0_dp, q_l, m_p, g, at_start=.true.)
     self%g0 = g
-    call local_state(self, 0.0_dp, q_l, m_p, g)
     ! q(t) = q_pre q_L(t) q_c with q(0) = q0 fixes q_pre (the rotation taking the L frame
     ! into the world, precession phase at t0 included).
     self%q_pre = quat_mul(quat_mul(self%q0, quat_conj(self%q_c)), quat_conj(q_l))
@@ -226,11 +224,13 @@ contains
   end function det3
 
   !> Triaxial case: L-frame orientation q_l (permuted body frame to L frame, phi(0) = 0) and
-  !> permuted-frame angular momentum m_p at t; g = G(tau) is returned for the set-up.
-  pure subroutine local_state(self, t, q_l, m_p, g)
+  !> permuted-frame angular momentum m_p at t; g = G(tau) is returned for the set-up, which
+  !> passes at_start (t = 0, phi = 0 before g0 is known).
+  pure subroutine local_state(self, t, q_l, m_p, g, at_start)
     type(free_rotor_t), intent(in) :: self
     real(dp), intent(in) :: t
     real(dp), intent(out) :: q_l(4), m_p(3), g
+    logical, intent(in), optional :: at_start
     real(dp) :: tau, j, u, sn, cn, dn, amp, phi, psi, cos_t, sin_t, ch, sh, sp, sm, nn, p, flip
     tau = self%lambda*t + self%tau0
     if (self%kind == ROTOR_ELLIPTIC) then
@@ -269,8 +269,14 @@ contains
     ! phi reduced by 4 pi (q_l is 4 pi-periodic in phi): any rounding of the reduction is
     ! then common to phi + psi and phi - psi, i.e. a rotation about L only, so the world L
     ! stays fixed to round-off even when phi ~ 1e7 rad (t ~ 1e6 s).
-    phi = self%omega_c*t + self%kappa*(g - self%g0)
-    phi = phi - 2.0_dp*two_pi*anint(phi/(2.0_dp*two_pi))
+    phi = 0.0_dp
+    if (present(at_start)) then
+      if (at_start) phi = 0.0_dp
+    end if
+    if (.not. present(at_start)) then
+      phi = self%omega_c*t + self%kappa*(g - self%g0)
+      phi = phi - 2.0_dp*two_pi*anint(phi/(2.0_dp*two_pi))
+    end if
     ! m_p/|L| = (sin theta sin psi, sin theta cos psi, cos theta).
     psi = atan2(m_p(1), m_p(2))
     flip = 1.0_dp

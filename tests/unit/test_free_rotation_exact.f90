@@ -141,6 +141,16 @@ program test_free_rotation_exact
     call composition(inertia, q_id, w0, 1.1_dp, 2.3_dp, 1.0e-11_dp, 'near separatrix')
   end do
 
+  ! Through the flips, against a 40-digit Taylor integration (tools/reference/
+  ! free_rotation_near_separatrix.py) from the same doubles. Near the separatrix the
+  ! period is K ~ ln(4/sqrt(1-k^2)) and 1 - k^2 comes from D_b = L^2 - 2 E I_2, O(1)
+  ! terms cancelling to ~(1-k^2) L^2: the rounding of m = I w alone moves it by
+  ! ~eps/(1-k^2) relative, so the flip phase, and the state after a flip, carry an error
+  ! ~eps/(1-k^2) (measured 7.5e-10 at 1 - k^2 = 1.3e-6, 9.6e-8 at 1.3e-9). Tolerance
+  ! 4e-15/(1 - k^2) on q and m (3e-9 and 3e-6): graceful, and the check fails for any
+  ! error in the period or phase formulas (which would be O(1) after a flip).
+  call read_near_separatrix(test_data_path('free_rotation_near_separatrix.csv'))
+
   ! ---- axisymmetric: regular precession. Closed form written independently here:
   ! body w precesses about e_3 at Omega = (I_1 - I_3)/I_1 w_3 ... checked through RK4, and
   ! the world w stays on a cone about L: w . L constant (= 2E) and |w| constant.
@@ -224,6 +234,33 @@ contains
     close (unit)
     data = data(:, 1:n)
   end subroutine read_reference
+
+  subroutine read_near_separatrix(path)
+    character(len=*), intent(in) :: path
+    character(len=512) :: line
+    real(dp) :: row(9), q(4), w(3), dq, dm, inertia(3)
+    integer :: unit, ios, n
+    type(free_rotor_t) :: r
+    inertia = [1.0_dp, 1.5_dp, 3.0_dp]
+    n = 0
+    open (newunit=unit, file=path, status='old', action='read')
+    do
+      read (unit, '(a)', iostat=ios) line
+      if (ios /= 0) exit
+      if (line(1:1) == '#' .or. len_trim(line) == 0) cycle
+      read (line, *) row
+      n = n + 1
+      call r%init(inertia, q_id, [3.0_dp, 2.0_dp, 1.0_dp + 10.0_dp**(-nint(row(1)))])
+      call r%evaluate(row(2), q, w)
+      dq = min(maxval(abs(q - row(3:6))), maxval(abs(q + row(3:6))))
+      dm = maxval(abs(inertia*quat_rotate_inverse(q, w) - row(7:9)))
+      call check_close(max(dq, dm), 0.0_dp, 0.0_dp, 'near separatrix vs 40-digit reference', atol=4.0e-15_dp/r%mc)
+      write (*, '(a,es9.1,a,f5.1,a,2es10.2)') 'near separatrix vs mpmath: 1 - k^2 =', r%mc, ' t =', row(2), &
+        ': dq, dm =', dq, dm
+    end do
+    close (unit)
+    call check(n == 8, 'eight near-separatrix reference states')
+  end subroutine read_near_separatrix
 
   !> Largest component differences of q (either sign) and body-frame w to a csv row.
   subroutine accumulate(q, w, row, max_q, max_w)
