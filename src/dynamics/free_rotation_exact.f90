@@ -16,8 +16,7 @@ module free_rotation_exact
   use error_status, only: error_t, ERR_INPUT
   use quaternion, only: quat_mul, quat_conj, quat_rotate, quat_rotate_inverse, quat_exp, &
                         quat_from_matrix
-  use elliptic_functions, only: carlson_rf, carlson_rj, elliptic_k_mc, elliptic_f_mc, &
-                                elliptic_pi_complete_mc, jacobi_sncndn_core
+  use elliptic_functions, only: carlson_rf_rj, elliptic_f_mc, jacobi_agm_table, jacobi_sncndn_table, jacobi_agm_max_steps
   implicit none
   private
   public :: free_rotor_t, exact_rotate
@@ -64,6 +63,11 @@ module free_rotation_exact
     real(dp) :: g0 = 0.0_dp              !< G(tau0), G(tau) = int_0^tau du/(1 - n sn^2 u)
     real(dp) :: omega_c = 0.0_dp         !< |L|/I_c [rad/s]
     real(dp) :: kappa = 0.0_dp           !< |L| (1/I_a - 1/I_c)/lambda [rad]
+    ! Bulirsch's AGM sequence for mc, computed once (evaluate then skips ~5 square roots)
+    real(dp) :: agm_em(jacobi_agm_max_steps) = 0.0_dp
+    real(dp) :: agm_en(jacobi_agm_max_steps) = 0.0_dp
+    real(dp) :: agm_c = 1.0_dp
+    integer :: agm_l = 0
   contains
     procedure :: init => rotor_init
     procedure :: evaluate => rotor_evaluate
@@ -135,7 +139,7 @@ contains
     type(free_rotor_t), intent(inout) :: self
     real(dp), intent(in) :: inertia(3), u(3)
     real(dp) :: c(3, 3), s(3, 3), up(3), ia, ib, ic, ua, ub, uc, da, db, dc, alpha2, beta2, gamma2
-    real(dp) :: alpha, beta, gamma, q_l(4), m_p(3), lam_sign, g
+    real(dp) :: alpha, beta, gamma, q_l(4), m_p(3), lam_sign, g, k_c, rj_c
     integer :: idx(3), tmp
 
     ! Sorted frame: rows of s are +-e_idx(i) with I ascending and det(s) = +1.
@@ -202,8 +206,11 @@ contains
     self%amp = self%l_norm*[alpha, beta, gamma]
     self%kappa = self%l_norm*(1.0_dp/ia - 1.0_dp/ic)/self%lambda
     if (self%kind == ROTOR_ELLIPTIC) then
-      self%two_k = 2.0_dp*elliptic_k_mc(self%mc)
-      self%pi_c = elliptic_pi_complete_mc(self%n_char, self%mc)
+      ! K = R_F(0, mc, 1) and Pi(n|m) = K + n/3 R_J(0, mc, 1, 1 - n) (DLMF 19.25.1-2) in one loop.
+      call carlson_rf_rj(0.0_dp, self%mc, 1.0_dp, 1.0_dp - self%n_char, k_c, rj_c)
+      self%two_k = 2.0_dp*k_c
+      self%pi_c = k_c + self%n_char/3.0_dp*rj_c
+      call jacobi_agm_table(self%mc, self%agm_em, self%agm_en, self%agm_l, self%agm_c)
       ! sn(tau0) = ub/beta, cn(tau0) = ua/alpha: tau0 = F(am0|m).
       self%tau0 = elliptic_f_mc(atan2(ub/beta, ua/alpha), self%mc)
     else
@@ -231,20 +238,20 @@ contains
     real(dp), intent(in) :: t
     real(dp), intent(out) :: q_l(4), m_p(3), g
     logical, intent(in), optional :: at_start
-    real(dp) :: tau, j, u, sn, cn, dn, amp, phi, psi, cos_t, sin_t, ch, sh, sp, sm, nn, p, flip
+    real(dp) :: tau, j, u, sn, cn, dn, amp, phi, psi, cos_t, sin_t, ch, sh, sp, sm, nn, p, flip, rf, rj
     tau = self%lambda*t + self%tau0
     if (self%kind == ROTOR_ELLIPTIC) then
       ! tau = u + 2 j K, |u| <= K; over each half period G grows by 2 Pi(n|m).
       j = anint(tau/self%two_k)
       u = tau - j*self%two_k
-      call jacobi_sncndn_core(u, self%mc, sn, cn, dn)
+      call jacobi_sncndn_table(u, self%mc, self%agm_em, self%agm_en, self%agm_l, self%agm_c, sn, cn, dn)
       amp = atan2(sn, cn)
       g = 2.0_dp*j*self%pi_c
       if (sn /= 0.0_dp) then
         ! Pi(n; am u|m) = s R_F(c^2, dn^2, 1) + n/3 s^3 R_J(c^2, dn^2, 1, 1 - n s^2), DLMF 19.25.14
         p = 1.0_dp - self%n_char*sn*sn
-        g = g + sn*carlson_rf(cn*cn, dn*dn, 1.0_dp) &
-            + self%n_char/3.0_dp*sn**3*carlson_rj(cn*cn, dn*dn, 1.0_dp, p)
+        call carlson_rf_rj(cn*cn, dn*dn, 1.0_dp, p, rf, rj)
+        g = g + sn*rf + self%n_char/3.0_dp*sn**3*rj
       end if
       if (mod(j, 2.0_dp) /= 0.0_dp) then
         sn = -sn

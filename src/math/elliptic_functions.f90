@@ -29,6 +29,7 @@ module elliptic_functions
             elliptic_pi_complete_mc
   public :: elliptic_f, elliptic_f_mc, elliptic_e_inc, elliptic_e_inc_mc, elliptic_pi, elliptic_pi_mc
   public :: jacobi_sncndn, jacobi_sncndn_mc, jacobi_sncndn_core, jacobi_am, jacobi_am_mc
+  public :: jacobi_agm_table, jacobi_sncndn_table, jacobi_agm_max_steps, carlson_rf_rj
 
   !> Unit roundoff of real(dp) (2^-53), the r of Carlson's stopping rule.
   real(dp), parameter :: unit_roundoff = 0.5_dp*epsilon(1.0_dp)
@@ -42,7 +43,7 @@ module elliptic_functions
   real(dp), parameter :: agm_tolerance = 1.0e-8_dp
   !> Enough AGM steps for mc down to the smallest normal number (convergence is quadratic
   !> once a/b = O(1); a/b = 1e154 needs ~9 steps).
-  integer, parameter :: agm_max_steps = 24
+  integer, parameter :: jacobi_agm_max_steps = 24
   !> Beyond this |u| at m = 1, cosh overflows; sech u = 2 exp(-|u|) there to full accuracy.
   real(dp), parameter :: sech_asymptotic = 40.0_dp
 
@@ -200,6 +201,61 @@ contains
     rj = f4*(1.0_dp - 3.0_dp*e2/14.0_dp + e3/6.0_dp + 9.0_dp*e2*e2/88.0_dp - 3.0_dp*e4/22.0_dp &
              - 9.0_dp*e2*e3/52.0_dp + 3.0_dp*e5/26.0_dp)/(an*sqrt(an)) + 6.0_dp*s
   end function carlson_rj
+
+  !> R_F(x,y,z) and R_J(x,y,z,p) together (p > 0): both duplicate the same x, y, z, so one
+  !> loop serves both (Pi(n; phi|m) needs exactly this pair). Iterates until both of
+  !> Carlson's stopping rules hold; results equal the separate routines to round-off.
+  elemental subroutine carlson_rf_rj(x, y, z, p, rf, rj)
+    real(dp), intent(in) :: x, y, z, p
+    real(dp), intent(out) :: rf, rj
+    real(dp) :: xn, yn, zn, pn, a0f, anf, a0, an, qf, q, lam, sx, sy, sz, sp, dm, em, delta, f4, f64, s
+    real(dp) :: xd, yd, zd, pd, e2, e3, e4, e5
+    if (min(x, y, z) < 0.0_dp .or. min(x + y, x + z, y + z) <= 0.0_dp .or. p <= 0.0_dp) then
+      rf = nan_value()
+      rj = rf
+      return
+    end if
+    xn = x; yn = y; zn = z; pn = p
+    a0f = (x + y + z)/3.0_dp
+    anf = a0f
+    a0 = (x + y + z + 2.0_dp*p)/5.0_dp
+    an = a0
+    delta = (p - x)*(p - y)*(p - z)
+    qf = q_rf*max(abs(a0f - x), abs(a0f - y), abs(a0f - z))
+    q = q_rd*max(abs(a0 - x), abs(a0 - y), abs(a0 - z), abs(a0 - p))
+    f4 = 1.0_dp
+    f64 = 1.0_dp
+    s = 0.0_dp
+    do while (q*f4 >= abs(an) .or. qf*f4 >= abs(anf))
+      sx = sqrt(xn); sy = sqrt(yn); sz = sqrt(zn); sp = sqrt(pn)
+      lam = sx*sy + sx*sz + sy*sz
+      dm = (sp + sx)*(sp + sy)*(sp + sz)
+      em = f64*delta/(dm*dm)
+      s = s + f4/dm*rc_one(em)
+      an = 0.25_dp*(an + lam)
+      anf = 0.25_dp*(anf + lam)
+      xn = 0.25_dp*(xn + lam); yn = 0.25_dp*(yn + lam); zn = 0.25_dp*(zn + lam)
+      pn = 0.25_dp*(pn + lam)
+      f4 = 0.25_dp*f4
+      f64 = f64/64.0_dp
+    end do
+    xd = (a0f - x)*f4/anf
+    yd = (a0f - y)*f4/anf
+    zd = -(xd + yd)
+    e2 = xd*yd - zd*zd
+    e3 = xd*yd*zd
+    rf = (1.0_dp - e2/10.0_dp + e3/14.0_dp + e2*e2/24.0_dp - 3.0_dp*e2*e3/44.0_dp)/sqrt(anf)
+    xd = (a0 - x)*f4/an
+    yd = (a0 - y)*f4/an
+    zd = (a0 - z)*f4/an
+    pd = -0.5_dp*(xd + yd + zd)
+    e2 = xd*yd + xd*zd + yd*zd - 3.0_dp*pd*pd
+    e3 = xd*yd*zd + 2.0_dp*e2*pd + 4.0_dp*pd*pd*pd
+    e4 = (2.0_dp*xd*yd*zd + e2*pd + 3.0_dp*pd*pd*pd)*pd
+    e5 = xd*yd*zd*pd*pd
+    rj = f4*(1.0_dp - 3.0_dp*e2/14.0_dp + e3/6.0_dp + 9.0_dp*e2*e2/88.0_dp - 3.0_dp*e4/22.0_dp &
+             - 9.0_dp*e2*e3/52.0_dp + 3.0_dp*e5/26.0_dp)/(an*sqrt(an)) + 6.0_dp*s
+  end subroutine carlson_rf_rj
 
   ! ------------------------------------------------------------------ complete integrals
 
@@ -400,25 +456,29 @@ contains
   elemental subroutine jacobi_sncndn_core(u, mc, sn, cn, dn)
     real(dp), intent(in) :: u, mc
     real(dp), intent(out) :: sn, cn, dn
-    real(dp) :: a, b, c, emc, uu, em(agm_max_steps), en(agm_max_steps)
-    integer :: i, l
-    if (mc == 0.0_dp) then
-      ! m = 1: sn = tanh, cn = dn = sech (asymptotic form where cosh would overflow).
-      sn = tanh(u)
-      if (abs(u) < sech_asymptotic) then
-        cn = 1.0_dp/cosh(u)
-      else
-        cn = 2.0_dp*exp(-abs(u))
-      end if
-      dn = cn
-      return
-    end if
+    real(dp) :: em(jacobi_agm_max_steps), en(jacobi_agm_max_steps), c
+    integer :: l
+    call jacobi_agm_table(mc, em, en, l, c)
+    call jacobi_sncndn_table(u, mc, em, en, l, c, sn, cn, dn)
+  end subroutine jacobi_sncndn_core
+
+  !> The descending AGM sequence of Bulirsch's algorithm, which depends on mc only: a
+  !> caller evaluating many u for one mc computes it once (free_rotor_t does).
+  pure subroutine jacobi_agm_table(mc, em, en, l, c)
+    real(dp), intent(in) :: mc
+    real(dp), intent(out) :: em(jacobi_agm_max_steps), en(jacobi_agm_max_steps), c
+    integer, intent(out) :: l
+    real(dp) :: a, emc
+    integer :: i
+    em = 0.0_dp
+    en = 0.0_dp
+    c = 1.0_dp
+    l = 0
+    if (mc <= 0.0_dp) return
     emc = mc
     a = 1.0_dp
-    dn = 1.0_dp
-    c = 1.0_dp
-    l = agm_max_steps
-    do i = 1, agm_max_steps
+    l = jacobi_agm_max_steps
+    do i = 1, jacobi_agm_max_steps
       em(i) = a
       emc = sqrt(emc)
       en(i) = emc
@@ -430,24 +490,44 @@ contains
       emc = a*emc
       a = c
     end do
-    uu = c*u
-    sn = sin(uu)
-    cn = cos(uu)
+  end subroutine jacobi_agm_table
+
+  !> sn, cn, dn of u (no reduction) from the AGM table of mc (jacobi_agm_table).
+  pure subroutine jacobi_sncndn_table(u, mc, em, en, l, c, sn, cn, dn)
+    real(dp), intent(in) :: u, mc, em(jacobi_agm_max_steps), en(jacobi_agm_max_steps), c
+    integer, intent(in) :: l
+    real(dp), intent(out) :: sn, cn, dn
+    real(dp) :: a, b, cc
+    integer :: i
+    if (mc == 0.0_dp) then
+      ! m = 1: sn = tanh, cn = dn = sech (asymptotic form where cosh would overflow).
+      sn = tanh(u)
+      if (abs(u) < sech_asymptotic) then
+        cn = 1.0_dp/cosh(u)
+      else
+        cn = 2.0_dp*exp(-abs(u))
+      end if
+      dn = cn
+      return
+    end if
+    dn = 1.0_dp
+    sn = sin(c*u)
+    cn = cos(c*u)
     if (sn /= 0.0_dp) then
       a = cn/sn
-      c = a*c
+      cc = a*c
       do i = l, 1, -1
         b = em(i)
-        a = c*a
-        c = dn*c
+        a = cc*a
+        cc = dn*cc
         dn = (en(i) + a)/(b + a)
-        a = c/b
+        a = cc/b
       end do
-      a = 1.0_dp/sqrt(c*c + 1.0_dp)
+      a = 1.0_dp/sqrt(cc*cc + 1.0_dp)
       sn = sign(a, sn)
-      cn = c*sn
+      cn = cc*sn
     end if
-  end subroutine jacobi_sncndn_core
+  end subroutine jacobi_sncndn_table
 
   !> Amplitude am(u|m), unwrapped: am(u + 2K) = am(u) + pi, so it grows without bound
   !> with u (what the orientation integral over many periods needs).
