@@ -43,19 +43,20 @@ program test_free_rotation_exact
   call check(max(dq, dw) < 1.0e-8_dp, 'one step of 20 s matches the csv end state')
   ! 2000 chained steps of 1e-2 s through exact_rotate (re-initialised every step). Each
   ! restart is exact to ~1e-13 (measured one-step defect 8e-14), but 8e-6 from the
-  ! separatrix, 1 - k^2 = D_b (..) comes from D_b = L^2 - 2 E I_2, a difference of O(1)
-  ! terms equal to 2e-6 L^2: a 1e-14 state error moves 1 - k^2, hence K and the flip phase,
-  ! by ~1e-9 relative per restart. That conditioning (any integrator restarted from
-  ! rounded states has it) gives the measured 1.1e-8 in w after 2000 restarts; tolerance
-  ! 5e-8 on w (q: 1e-8 as above, measured 9e-10).
+  ! separatrix, 1 - k^2 comes from D_b = L^2 - 2 E I_2, a difference of O(1) terms equal
+  ! to 2e-6 L^2: a 1e-14 state error moves 1 - k^2, hence K and the flip phase, by ~1e-9
+  ! relative per restart. That conditioning (any integrator restarted from rounded states
+  ! has it) makes the chained error a random walk of roundings: measured 1.1e-8 and 3.3e-8
+  ! in w (9e-10 and 2.5e-9 in q) for two versions of the code differing only in rounding.
+  ! Tolerance 1e-7 on w and 2e-8 on q (3x and 8x the larger measurement).
   q = q_id; w = quat_rotate(q_id, ref(2:4, 1))
   max_q = 0.0_dp; max_w = 0.0_dp
   do k = 2, size(ref, 2)
     call exact_rotate(q, w, i123, ref(1, k) - ref(1, k - 1))
     call accumulate(q, w, ref(:, k), max_q, max_w)
   end do
-  call check_close(max_q, 0.0_dp, 0.0_dp, '2000 steps of 1e-2 s: q vs csv', atol=1.0e-8_dp)
-  call check_close(max_w, 0.0_dp, 0.0_dp, '2000 steps of 1e-2 s: body w vs csv', atol=5.0e-8_dp)
+  call check_close(max_q, 0.0_dp, 0.0_dp, '2000 steps of 1e-2 s: q vs csv', atol=2.0e-8_dp)
+  call check_close(max_w, 0.0_dp, 0.0_dp, '2000 steps of 1e-2 s: body w vs csv', atol=1.0e-7_dp)
   write (*, '(a,2es10.2)') 'csv, 2000 steps: max |dq|, |dw| = ', max_q, max_w
 
   ! ---- flips of the intermediate component w_y: zero crossings found by bisection on the
