@@ -83,12 +83,16 @@ contains
     type(error_t), intent(inout), optional :: err
     real(dp) :: m_body(3), u(3), off, imax
     integer :: p, iu
+    character(len=48) :: text
 
     self%q0 = q0/norm2(q0)
     self%w0_world = w0_world
     if (.not. all(inertia > 0.0_dp .and. inertia < huge(1.0_dp))) then
-      if (present(err)) call err%set(ERR_INPUT, 'free_rotation_exact: principal moments of inertia must be '// &
-                                     'finite and > 0 [kg m^2]')
+      if (present(err)) then
+        write (text, '(3es12.4)') inertia
+        call err%set(ERR_INPUT, 'free_rotation_exact: principal moments of inertia must be finite and > 0 '// &
+                     '[kg m^2], got'//trim(text))
+      end if
       self%kind = ROTOR_STATIC
       self%w0_world = 0.0_dp
       return
@@ -103,7 +107,7 @@ contains
     u = m_body/self%l_norm
     imax = maxval(inertia)
     p = maxloc(abs(u), dim=1)
-    off = norm2(pack(u, [1, 2, 3] /= p))
+    off = sqrt(u(mod(p, 3) + 1)**2 + u(mod(p + 1, 3) + 1)**2)
     if (maxval(inertia) - minval(inertia) <= equal_moment_tolerance*imax .or. off <= steady_spin_tolerance) then
       ! Sphere (any w) or L along a principal axis: w is constant in body and world.
       self%kind = ROTOR_STEADY_SPIN
