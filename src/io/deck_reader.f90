@@ -62,10 +62,11 @@ module deck_reader
   type(var_spec_t), parameter :: contact_vars(3) = [ &
     var_spec_t('restitution', V_REAL, 1, 0), var_spec_t('friction', V_REAL, 1, 0), &
     var_spec_t('min_separation', V_REAL, 1, 0)]
-  type(var_spec_t), parameter :: output_vars(4) = [ &
+  type(var_spec_t), parameter :: output_vars(6) = [ &
     var_spec_t('dir', V_CHARACTER, 1, len(output_default%dir)), var_spec_t('interval', V_REAL, 1, 0), &
-    var_spec_t('checkpoint_interval', V_REAL, 1, 0), var_spec_t('progress_interval', V_REAL, 1, 0)]
-  type(var_spec_t), parameter :: body_vars(20) = [ &
+    var_spec_t('checkpoint_interval', V_REAL, 1, 0), var_spec_t('progress_interval', V_REAL, 1, 0), &
+    var_spec_t('history_interval', V_REAL, 1, 0), var_spec_t('write_frames', V_LOGICAL, 1, 0)]
+  type(var_spec_t), parameter :: body_vars(21) = [ &
     var_spec_t('name', V_CHARACTER, 1, len(body_default%name)), &
     var_spec_t('shape', V_CHARACTER, 1, len(body_default%shape)), &
     var_spec_t('radius', V_REAL, 1, 0), var_spec_t('size', V_REAL, 3, 0), &
@@ -77,7 +78,7 @@ module deck_reader
     var_spec_t('fixed', V_LOGICAL, 1, 0), var_spec_t('copies', V_INTEGER, 3, 0), &
     var_spec_t('spacing', V_REAL, 3, 0), var_spec_t('seed', V_INTEGER, 1, 0), &
     var_spec_t('jitter_position', V_REAL, 1, 0), var_spec_t('jitter_angle', V_REAL, 1, 0), &
-    var_spec_t('jitter_velocity', V_REAL, 1, 0)]
+    var_spec_t('jitter_velocity', V_REAL, 1, 0), var_spec_t('inertia', V_REAL, 3, 0)]
 
   character(len=*), parameter :: known_groups = '&run, &integrator, &contact, &output, &body'
   character(len=10), parameter :: group_names(5) = [character(len=10) :: &
@@ -1238,11 +1239,12 @@ contains
     type(error_t), intent(inout) :: err
     type(group_input_t) :: g
     character(len=len(config%dir)) :: dir
-    real(dp) :: interval, checkpoint_interval, progress_interval
+    real(dp) :: interval, checkpoint_interval, progress_interval, history_interval
+    logical :: write_frames
     character(len=:), allocatable :: resolved
     integer :: ios
     character(len=512) :: msg
-    namelist /output/ dir, interval, checkpoint_interval, progress_interval
+    namelist /output/ dir, interval, checkpoint_interval, progress_interval, history_interval, write_frames
 
     call open_group(src, group, output_vars, '&output', g)
     call prepare_group(g, err)
@@ -1251,6 +1253,8 @@ contains
     interval = config%interval
     checkpoint_interval = config%checkpoint_interval
     progress_interval = config%progress_interval
+    history_interval = config%history_interval
+    write_frames = config%write_frames
     msg = ''
     read (g%text, nml=output, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -1260,8 +1264,11 @@ contains
     config%interval = interval
     config%checkpoint_interval = checkpoint_interval
     config%progress_interval = progress_interval
+    config%history_interval = history_interval
+    config%write_frames = write_frames
 
     call require_finite(g, err, 'interval', [interval])
+    call require_finite(g, err, 'history_interval', [history_interval])
     call require_finite(g, err, 'checkpoint_interval', [checkpoint_interval])
     call require_finite(g, err, 'progress_interval', [progress_interval])
     if (err%failed()) return
@@ -1284,6 +1291,9 @@ contains
                 real_text(checkpoint_interval))
     else if (progress_interval <= 0.0_dp) then
       call fail(g, err, 'progress_interval', 'progress_interval must be > 0 s, got '//real_text(progress_interval))
+    else if (history_interval /= DECK_AUTO .and. history_interval <= 0.0_dp) then
+      call fail(g, err, 'history_interval', 'history_interval must be > 0 s, or -1 for auto (interval/10), got '// &
+                real_text(history_interval))
     end if
   end subroutine read_output_group
 
@@ -1329,14 +1339,14 @@ contains
     character(len=len(spec%shape)) :: shape
     character(len=len(spec%mesh_file)) :: mesh_file
     real(dp) :: radius, size(3), scale, density, mass, position(3), orientation(4), velocity(3), &
-                angular_velocity(3), spacing(3), jitter_position, jitter_angle, jitter_velocity
+                angular_velocity(3), spacing(3), jitter_position, jitter_angle, jitter_velocity, inertia(3)
     integer :: segments, copies(3), seed
     logical :: fixed
     integer :: ios
     character(len=512) :: msg
     namelist /body/ name, shape, radius, size, segments, mesh_file, scale, density, mass, position, &
       orientation, velocity, angular_velocity, fixed, copies, spacing, seed, jitter_position, jitter_angle, &
-      jitter_velocity
+      jitter_velocity, inertia
 
     name = spec%name
     shape = spec%shape
@@ -1358,6 +1368,7 @@ contains
     jitter_position = spec%jitter_position
     jitter_angle = spec%jitter_angle
     jitter_velocity = spec%jitter_velocity
+    inertia = spec%inertia
     msg = ''
     read (g%text, nml=body, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -1384,7 +1395,34 @@ contains
     spec%jitter_position = jitter_position
     spec%jitter_angle = jitter_angle
     spec%jitter_velocity = jitter_velocity
+    spec%inertia = inertia
   end subroutine namelist_read_body
+
+  !> inertia: auto (all -1) or three positive moments that a rigid body can have (each at
+  !> most the sum of the other two), for a body with mass, not a fixed one.
+  subroutine check_inertia(g, spec, err)
+    type(group_input_t), intent(in) :: g
+    type(body_spec_t), intent(in) :: spec
+    type(error_t), intent(inout) :: err
+    real(dp) :: moments(3)
+    integer :: k
+    moments = spec%inertia
+    if (all(moments == DECK_AUTO)) return
+    if (any(moments <= 0.0_dp)) then
+      call fail(g, err, 'inertia', 'inertia needs three moments > 0 kg m^2 (or none, for the solid''s own)')
+    else if (spec%fixed) then
+      call fail(g, err, 'inertia', 'a fixed body never moves: inertia must not be given')
+    else
+      do k = 1, 3
+        ! Each moment is sum of m (y^2 + z^2)-like terms: I_k <= I_i + I_j for any body
+        ! (equality for a flat plate); round-off slack of 1e-12 relative.
+        if (moments(k) > (sum(moments) - moments(k))*(1.0_dp + 1.0e-12_dp)) then
+          call fail(g, err, 'inertia', 'inertia: no rigid body has a moment larger than the sum of the other two')
+          return
+        end if
+      end do
+    end if
+  end subroutine check_inertia
 
   !> The rules of a &body (docs/input.md): shape and its variables, mass, orientation,
   !> motion of fixed bodies, lattice and jitter.
@@ -1412,6 +1450,9 @@ contains
     call require_finite(g, err, 'jitter_position', [spec%jitter_position])
     call require_finite(g, err, 'jitter_angle', [spec%jitter_angle])
     call require_finite(g, err, 'jitter_velocity', [spec%jitter_velocity])
+    call require_finite(g, err, 'inertia', spec%inertia)
+    if (err%failed()) return
+    call check_inertia(g, spec, err)
     if (err%failed()) return
 
     if (len_trim(spec%name) == 0) then
@@ -1880,6 +1921,10 @@ contains
     call put_real(unit, 'interval', [deck%output%interval], note)
     call put_real(unit, 'checkpoint_interval', [deck%output%checkpoint_interval], '[s] 0: only at the end')
     call put_real(unit, 'progress_interval', [deck%output%progress_interval], '[s of wall time]')
+    note = '[s]'
+    if (deck%output%history_interval == DECK_AUTO) note = '[s] -1: auto, interval/10'
+    call put_real(unit, 'history_interval', [deck%output%history_interval], note)
+    call put_logical(unit, 'write_frames', deck%output%write_frames)
     write (unit, '(a)') '/'
     if (.not. allocated(deck%bodies)) return
     do k = 1, deck%n_bodies
@@ -1931,6 +1976,11 @@ contains
         call put_real(unit, 'jitter_position', [b%jitter_position], '[m]')
         call put_real(unit, 'jitter_angle', [b%jitter_angle], '[rad]')
         call put_real(unit, 'jitter_velocity', [b%jitter_velocity], '[m/s]')
+        if (all(b%inertia == DECK_AUTO)) then
+          call put_real(unit, 'inertia', b%inertia, '[kg m^2] -1: auto, from the geometry')
+        else
+          call put_real(unit, 'inertia', b%inertia, '[kg m^2] about the shape''s own axes')
+        end if
         write (unit, '(a)') '/'
       end associate
     end do

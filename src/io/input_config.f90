@@ -39,6 +39,8 @@ module input_config
     real(dp) :: interval = -1.0_dp                 !< [s]; auto: t_end/100
     real(dp) :: checkpoint_interval = 0.0_dp       !< [s]; 0: only at the end of the run
     real(dp) :: progress_interval = 10.0_dp        !< [s of wall time] between progress lines
+    real(dp) :: history_interval = -1.0_dp         !< [s] between history rows; auto: interval/10
+    logical :: write_frames = .true.               !< .false.: history and checkpoints only
   end type output_config_t
 
   !> One &body group: a body, or a lattice of copies of it.
@@ -63,6 +65,10 @@ module input_config
     real(dp) :: jitter_position = 0.0_dp     !< [m] max offset per axis
     real(dp) :: jitter_angle = 0.0_dp        !< [rad] max rotation angle
     real(dp) :: jitter_velocity = 0.0_dp     !< [m/s] max change per axis
+    !> [kg m^2] moments about the shape's own x, y, z axes through the centre of mass,
+    !> replacing those of the uniform solid (hollow or loaded bodies); auto (-1): from the
+    !> geometry. The shape's inertia tensor must be diagonal in its own frame.
+    real(dp) :: inertia(3) = -1.0_dp
     integer :: line = 0                      !< line of the deck where the group starts
   end type body_spec_t
 

@@ -6,7 +6,7 @@ module body_builder
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INPUT
   use string_utils, only: str
-  use quaternion, only: quat_mul, quat_exp, quat_normalize, quat_rotate, quat_rotate_inverse
+  use quaternion, only: quat_mul, quat_exp, quat_normalize, quat_rotate, quat_rotate_inverse, quat_to_matrix
   use vector_ops, only: cross
   use random_stream, only: random_stream_t
   use mesh, only: mesh_t
@@ -118,7 +118,7 @@ contains
     type(random_stream_t) :: stream
     integer(i8) :: gid
     integer :: k, i, j, l, n
-    real(dp) :: position(3), orientation(4), velocity(3), jitter_axis(3), density
+    real(dp) :: position(3), orientation(4), velocity(3), jitter_axis(3), density, moments(3)
     call bodies%allocate(int(max(0_i8, last - first + 1)))
     gid = 0
     n = 0
@@ -128,6 +128,11 @@ contains
           density = spec%mass/s%volume
         else
           density = spec%density
+        end if
+        call principal_moments(spec, s, density, moments, err)
+        if (err%failed()) then
+          call err%prefix(deck%path//':'//str(spec%line)//': &body #'//str(k)//" '"//trim(spec%name)//"': ")
+          return
         end if
         if (spec%seed /= 0) call stream%init(spec%seed)
         do l = 1, spec%copies(3)
@@ -150,7 +155,7 @@ contains
               end if
               if (gid < first .or. gid > last) cycle
               n = n + 1
-              call place_body(bodies, n, gid, k, shape_of_group(k), s, spec%fixed, density, position, &
+              call place_body(bodies, n, gid, k, shape_of_group(k), s, spec%fixed, density, moments, position, &
                               orientation, velocity, spec%angular_velocity, gravity)
             end do
           end do
@@ -162,16 +167,53 @@ contains
                                             str(last - first + 1))
   end subroutine build_bodies
 
+  !> Principal moments of a group's bodies [kg m^2]: the uniform solid's, or the deck's
+  !> `inertia` (given about the shape's own axes) expressed in the shape's principal frame,
+  !> where it must be diagonal too (true for boxes, cylinders, spheres, symmetric meshes).
+  subroutine principal_moments(spec, s, density, moments, err)
+    type(body_spec_t), intent(in) :: spec
+    type(shape_t), intent(in) :: s
+    real(dp), intent(in) :: density
+    real(dp), intent(out) :: moments(3)
+    type(error_t), intent(inout) :: err
+    real(dp) :: r(3, 3), j(3, 3)
+    integer :: k
+    if (any(spec%inertia <= 0.0_dp)) then
+      moments = density*s%unit_inertia
+      return
+    end if
+    r = quat_to_matrix(s%q_principal)
+    j = matmul(transpose(r), matmul(reshape([spec%inertia(1), 0.0_dp, 0.0_dp, 0.0_dp, spec%inertia(2), 0.0_dp, &
+                                             0.0_dp, 0.0_dp, spec%inertia(3)], [3, 3]), r))
+    do k = 1, 3
+      moments(k) = j(k, k)
+    end do
+    ! The principal axes of the solid are only defined up to rotations within equal
+    ! moments, so off-diagonal terms above round-off mean the deck's axes are not its own.
+    if (maxval(abs(j - diagonal(moments))) > 1.0e-9_dp*maxval(moments)) then
+      call err%set(ERR_INPUT, 'inertia: the shape''s inertia tensor is not diagonal in its own axes, so '// &
+                   'three moments about them do not define the body''s inertia')
+    end if
+  contains
+    pure function diagonal(d) result(m)
+      real(dp), intent(in) :: d(3)
+      real(dp) :: m(3, 3)
+      m = 0.0_dp
+      m(1, 1) = d(1); m(2, 2) = d(2); m(3, 3) = d(3)
+    end function diagonal
+  end subroutine principal_moments
+
   !> Sets body n from the user's description: the user orientation rotates the shape's own
   !> frame into the world; internally the body is held in the shape's principal frame.
-  subroutine place_body(bodies, n, gid, group, shape_index, s, fixed, density, position, orientation, &
+  subroutine place_body(bodies, n, gid, group, shape_index, s, fixed, density, moments, position, orientation, &
                         velocity, angular_velocity, gravity)
     type(bodies_t), intent(inout) :: bodies
     integer, intent(in) :: n, group, shape_index
     integer(i8), intent(in) :: gid
     type(shape_t), intent(in) :: s
     logical, intent(in) :: fixed
-    real(dp), intent(in) :: density, position(3), orientation(4), velocity(3), angular_velocity(3), gravity(3)
+    real(dp), intent(in) :: density, moments(3), position(3), orientation(4), velocity(3), angular_velocity(3), &
+                            gravity(3)
     real(dp) :: jw(3), wb(3)
     bodies%gid(n) = gid
     bodies%group_id(n) = group
@@ -191,7 +233,7 @@ contains
       return
     end if
     bodies%mass(n) = density*s%volume
-    bodies%inertia(:, n) = density*s%unit_inertia
+    bodies%inertia(:, n) = moments
     bodies%inv_mass(n) = 1.0_dp/bodies%mass(n)
     bodies%inv_inertia(:, n) = 1.0_dp/bodies%inertia(:, n)
     bodies%v(:, n) = velocity

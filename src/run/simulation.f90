@@ -12,7 +12,8 @@ module simulation
   use body_state, only: bodies_t
   use body_builder, only: build_shapes, build_bodies, count_bodies, owned_range
   use conservation, only: system_totals_t, compute_totals
-  use newmark_integrator, only: advance_free_flight, free_flight_stats_t
+  use newmark_integrator, only: free_flight_stats_t
+  use free_flight, only: advance_bodies
   use history_writer, only: history_writer_t, history_record_t
   use frame_writer, only: frame_writer_t
   use checkpoint_meta, only: checkpoint_meta_t
@@ -37,6 +38,9 @@ module simulation
     integer(i8) :: step = 0
     integer(i8) :: n_total = 0
     real(dp) :: next_output = 0.0_dp
+    real(dp) :: output_interval = 0.0_dp      !< [s] effective (auto resolved)
+    real(dp) :: history_interval = 0.0_dp     !< [s] effective (auto resolved)
+    real(dp) :: next_history = 0.0_dp
     real(dp) :: next_checkpoint = huge(1.0_dp)
     integer :: n_checkpoints = 0
     real(dp) :: wall_before = 0.0_dp      !< wall time of earlier runs (restarts) [s]
@@ -90,6 +94,11 @@ contains
     if (deck%output%checkpoint_interval > 0.0_dp) then
       self%next_checkpoint = deck%output%checkpoint_interval
     end if
+    ! Auto intervals (docs/input.md): 100 frames per run, 10 history rows per frame.
+    self%output_interval = deck%output%interval
+    if (self%output_interval <= 0.0_dp) self%output_interval = deck%run%t_end/100.0_dp
+    self%history_interval = deck%output%history_interval
+    if (self%history_interval <= 0.0_dp) self%history_interval = self%output_interval/10.0_dp
     self%next_output = 0.0_dp
 
     call self%frames%init(par, self%output_dir, err)
@@ -103,6 +112,9 @@ contains
     end if
     call self%history%init(par, join_path(self%output_dir, 'history.csv'), self%time, err)
     if (err%failed()) return
+    ! History rows fall at the first step end at or after each multiple of the interval; the
+    ! next one follows from the time alone, so a restart needs nothing more.
+    self%next_history = (aint(self%time/self%history_interval) + 1.0_dp)*self%history_interval
     if (.not. self%restarted) then
       call self%record_history(par, err)
       if (err%failed()) return
@@ -191,7 +203,7 @@ contains
         h = dt_max
       end if
       clock = par%wtime()
-      call advance_free_flight(self%bodies, h, self%deck%run%gravity, self%deck%integrator, self%flight)
+      call advance_bodies(self%bodies, h, self%deck%run%gravity, self%deck%integrator, self%flight)
       self%integration_wall = self%integration_wall + (par%wtime() - clock)
       self%step = self%step + 1
       self%last_dt = h
@@ -202,9 +214,12 @@ contains
       end if
       hits_output = self%time >= self%next_output
       hits_checkpoint = self%time >= self%next_checkpoint
-      if (hits_output .or. self%time >= t_end) then
+      if (hits_output .or. self%time >= t_end .or. self%time >= self%next_history) then
         call self%record_history(par, err)
         if (err%failed()) return
+        self%next_history = (aint(self%time/self%history_interval) + 1.0_dp)*self%history_interval
+      end if
+      if (hits_output .or. self%time >= t_end) then
         call self%write_frame(par, err)
         if (err%failed()) return
       end if
@@ -258,9 +273,13 @@ contains
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
+    if (.not. self%deck%output%write_frames) then
+      self%next_output = huge(1.0_dp)     ! no frames: steps need not land on output times
+      return
+    end if
     call self%frames%write(par, self%time, self%bodies, self%shapes, self%group_names, err)
     ! Output times are multiples of the interval, computed, not accumulated.
-    self%next_output = real(self%frames%n_frames, dp)*self%deck%output%interval
+    self%next_output = real(self%frames%n_frames, dp)*self%output_interval
   end subroutine write_frame
 
   subroutine write_checkpoint_now(self, par, name, err)
