@@ -45,7 +45,8 @@ module history_writer
 
   type :: history_writer_t
     character(len=:), allocatable :: path
-    integer :: unit = -1                          !< open on rank 0 only
+    integer :: unit = 0                           !< newunit numbers are negative: see is_open
+    logical :: is_open = .false.                  !< only ever on rank 0
   contains
     procedure :: init => history_init
     procedure :: write => history_write
@@ -129,7 +130,8 @@ contains
           form='formatted', iostat=status)
     if (status /= 0) then
       call err%set(ERR_IO, "cannot open '"//self%path//"' for appending")
-      self%unit = -1
+    else
+      self%is_open = .true.
     end if
   end subroutine init_on_root
 
@@ -141,7 +143,7 @@ contains
     type(error_t), intent(inout) :: err
     integer :: status
     if (par%is_root()) then
-      if (self%unit < 0) then
+      if (.not. self%is_open) then
         call err%set(ERR_IO, 'history file written before it was opened')
       else
         write (self%unit, row_format, iostat=status) rec%time, rec%dt, rec%steps, rec%kinetic_translational, &
@@ -157,8 +159,8 @@ contains
 
   subroutine history_free(self)
     class(history_writer_t), intent(inout) :: self
-    if (self%unit >= 0) close (self%unit)
-    self%unit = -1
+    if (self%is_open) close (self%unit)
+    self%is_open = .false.
     if (allocated(self%path)) deallocate (self%path)
   end subroutine history_free
 

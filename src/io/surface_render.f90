@@ -12,8 +12,8 @@ module surface_render
   private
   public :: surface_render_t, sphere_subdivisions
 
-  !> 2 subdivisions: 320 triangles, at most 1.6 % radial error at triangle centres (the
-  !> flattest facets), fine for pictures and cheap for 10^5 spheres.
+  !> 2 subdivisions: 320 triangles, facet centres at most 1.8 % inside the sphere (volume
+  !> 3.4 % short): fine for pictures and cheap for 10^5 spheres.
   integer, parameter :: sphere_subdivisions = 2
 
   type :: surface_render_t

@@ -252,10 +252,15 @@ contains
         if (status == 0) call h5sselect_none_f(mem_space, status)
       end if
     end if
-    if (status == 0) call h5pcreate_f(H5P_DATASET_XFER_F, xfer, status)
-    if (status == 0) call h5pset_dxpl_mpio_f(xfer, H5FD_MPIO_COLLECTIVE_F, status)
-    if (status == 0) call h5dwrite_f(dset, mem_type, buffer, status, mem_space_id=mem_space, &
-                                     file_space_id=file_space, xfer_prp=xfer)
+    ! An empty dataset has no storage to write to (a collective write of nothing to it fails
+    ! in HDF5 1.10 with an undefined address): creating it is all there is to do. Every rank
+    ! knows n_total, so all skip together.
+    if (status == 0 .and. n_total > 0) then
+      call h5pcreate_f(H5P_DATASET_XFER_F, xfer, status)
+      if (status == 0) call h5pset_dxpl_mpio_f(xfer, H5FD_MPIO_COLLECTIVE_F, status)
+      if (status == 0) call h5dwrite_f(dset, mem_type, buffer, status, mem_space_id=mem_space, &
+                                       file_space_id=file_space, xfer_prp=xfer)
+    end if
     if (status /= 0) call err%set(ERR_IO, "cannot write dataset '"//name//"'")
     if (xfer >= 0) call h5pclose_f(xfer, status)
     if (dset >= 0) call h5dclose_f(dset, status)
