@@ -11,3 +11,10 @@ if(RICOCHET_USE_HDF5)
   set_tests_properties(io.frame_writer_xdmf PROPERTIES FIXTURES_REQUIRED frame_output
                        DEPENDS io.test_frame_writer LABELS io ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 120)
 endif()
+
+# tools/plot_history.py turns a history file into a PNG (exit code 0 only after saving it).
+add_test(NAME io.plot_history
+         COMMAND ${RICOCHET_PYTHON} ${PROJECT_SOURCE_DIR}/tools/plot_history.py
+                 ${RICOCHET_TEST_DATA}/history_small.csv --out history_small.png
+         WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}/run)
+set_tests_properties(io.plot_history PROPERTIES LABELS io TIMEOUT 120)
