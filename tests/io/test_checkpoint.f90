@@ -106,6 +106,10 @@ program test_checkpoint
                       'checkpoint_version_999.h5', 'version 999', 'reads version 1'], 'future version')
   call expect_failure(test_data_path('checkpoint_empty.h5'), [character(len=40) :: 'checkpoint_empty.h5', &
                       'is damaged', "'time' is missing"], 'header only')
+  ! A checkpoint that cannot be written (its folder would be under a file) names the path.
+  call write_checkpoint(par, 'deck.nml/run.h5', meta, bodies, err)
+  call check_error(err%code, text(err), [character(len=40) :: 'deck.nml'], 'unwritable checkpoint path')
+  call err%clear()
   ! An output frame is HDF5 with a 'format' attribute of another kind.
   ball%kind = SHAPE_SPHERE
   ball%label = 'ball'

@@ -77,6 +77,14 @@ program test_frame_writer
                    'restore with a missing frame file')
   call err%clear()
 
+  ! An output folder that cannot be made (its parent is a file) is named in the error.
+  open (newunit=frame, file='plain_file', status='replace', action='write')
+  close (frame)
+  call writer%init(par, 'plain_file/output', err)
+  call check_error(err%code, message(err), [character(len=40) :: "'plain_file/output/frames'"], &
+                   'output folder under a file')
+  call err%clear()
+
   call writer%free()
   call restarted%free()
   call par%free()

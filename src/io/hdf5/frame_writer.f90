@@ -9,7 +9,7 @@
 module frame_writer
   use kinds, only: dp, i8
   use constants, only: name_length
-  use error_status, only: error_t, ERR_IO
+  use error_status, only: error_t, ERR_IO, ERR_INTERNAL
   use string_utils, only: str, join_path
   use parallel_env, only: parallel_t
   use body_state, only: bodies_t
@@ -142,8 +142,16 @@ contains
       return
     end if
 
-    ! Row ranges of this rank in the global datasets.
     n = bodies%n_owned
+    if (n > 0) then
+      if (any(bodies%shape_id(1:n) < 1 .or. bodies%shape_id(1:n) > shapes%n_shapes)) then
+        call err%set(ERR_INTERNAL, 'frame output: a body refers to a shape that is not in the library')
+      end if
+    end if
+    call agree(par, err, 'frame output: bad shape index on another rank')
+    if (err%failed()) return
+
+    ! Row ranges of this rank in the global datasets.
     n_local = n
     n_bodies = par%sum(n_local)
     body_offset = par%exscan(n_local)
