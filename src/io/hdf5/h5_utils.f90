@@ -354,7 +354,7 @@ contains
 
   !> Fixed-length, null-padded strings (trailing blanks of the Fortran strings dropped),
   !> one per row: what h5py and other C readers expect.
-  subroutine write_strings_impl(loc, name, strings, n_total, offset, err)
+  subroutine h5u_write_strings(loc, name, strings, n_total, offset, err)
     integer(hid_t), intent(in) :: loc
     character(len=*), intent(in) :: name
     character(len=*), intent(in) :: strings(:)
@@ -379,15 +379,6 @@ contains
     end do
     call write_block(loc, name, string_type, string_type, 0, n_total, offset, size(strings), c_loc(buffer), err)
     call h5tclose_f(string_type, status)
-  end subroutine write_strings_impl
-
-  subroutine h5u_write_strings(loc, name, strings, n_total, offset, err)
-    integer(hid_t), intent(in) :: loc
-    character(len=*), intent(in) :: name
-    character(len=*), intent(in) :: strings(:)
-    integer(i8), intent(in) :: n_total, offset
-    type(error_t), intent(inout) :: err
-    call write_strings_impl(loc, name, strings, n_total, offset, err)
   end subroutine h5u_write_strings
 
   subroutine string_type_of(width, string_type, status)

@@ -14,6 +14,9 @@ module checkpoint_io
 
 contains
 
+  ! The conditions below only touch every argument (no unused-argument warnings); they
+  ! are always true.
+
   subroutine write_checkpoint(par, path, meta, bodies, err)
     type(parallel_t), intent(in) :: par
     character(len=*), intent(in) :: path
