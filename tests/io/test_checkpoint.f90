@@ -60,7 +60,8 @@ program test_checkpoint
   call check(same(meta_back%frame_times, meta%frame_times(1:3)), 'frame times bitwise')
   call check(same([meta_back%next_output_time, meta_back%next_checkpoint_time, meta_back%wall_time_before], &
                   [meta%next_output_time, meta%next_checkpoint_time, meta%wall_time_before]), 'schedule bitwise')
-  call check(same([meta_back%e0, meta_back%p0, meta_back%l0], [meta%e0, meta%p0, meta%l0]), 'reference values bitwise')
+  call check(same([meta_back%e0, meta_back%p0, meta_back%l0, meta_back%mass0], [meta%e0, meta%p0, meta%l0, meta%mass0]), &
+             'reference values bitwise')
   call check(meta_back%n_bodies_total == 4, 'n_bodies_total')
   call check(meta_back%title == meta%title, 'title')
   call check(same([meta_back%checksum], [meta%checksum]), 'checksum bitwise')
@@ -202,6 +203,7 @@ contains
     m%e0 = -1.0_dp/7.0_dp
     m%p0 = [1.0e-17_dp, 2.0_dp, -3.0_dp]
     m%l0 = [sqrt(2.0_dp), 0.0_dp, -sqrt(3.0_dp)]
+    m%mass0 = 1.0_dp/9.0_dp
     m%n_bodies_total = 4
     m%title = 'test checkpoint'
     m%checksum = bodies_checksum(par, b)

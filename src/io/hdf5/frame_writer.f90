@@ -26,12 +26,14 @@ module frame_writer
 
   character(len=*), parameter :: frame_format = 'ricochet-frame'   !< root attribute 'format'
   integer, parameter :: frame_version = 1
+  integer(i8), parameter :: unknown_size = -1   !< sizes of restored frames until read back
 
   type :: frame_writer_t
     character(len=:), allocatable :: dir         !< output folder; frames in dir/frames/
     integer :: n_frames = 0                      !< frames written (or restored) so far
     real(dp), allocatable :: frame_times(:)      !< (capacity) times of frames 1..n_frames [s]
-    !> Sizes of each frame (bodies, surface points, triangles): the XDMF index needs them.
+    !> Sizes of each frame (bodies, surface points, triangles): the XDMF index needs them
+    !> (-1 for restored frames until their files are read back; rank 0 only).
     integer(i8), allocatable :: frame_sizes(:, :)   !< (3, capacity)
     type(surface_render_t) :: render
   contains
@@ -62,7 +64,7 @@ contains
     self%dir = trim(dir)
     allocate (self%frame_times(16), self%frame_sizes(3, 16))
     self%frame_times = 0.0_dp
-    self%frame_sizes = 0
+    self%frame_sizes = unknown_size
     call self%render%init()
     if (par%is_root()) call make_directory(join_path(self%dir, 'frames'), err)
     call agree(par, err, "output folder '"//self%dir//"': failed on rank 0")
@@ -78,45 +80,45 @@ contains
   end subroutine frame_free
 
   !> Continues after a restart: frames 1..n_frames (times from the checkpoint) count as
-  !> written; later frame files are overwritten as the run goes on. Rank 0 reads each
-  !> frame's sizes back from its file and rewrites the XDMF indexes. Collective.
-  subroutine frame_restore(self, par, n_frames, frame_times, err)
+  !> written; later frame files are overwritten as the run goes on. Local, no I/O: the sizes
+  !> of the restored frames, which the XDMF indexes need, are read back from their files
+  !> (on rank 0) when the next frame is written, which then rewrites the indexes.
+  subroutine frame_restore(self, n_frames, frame_times)
     class(frame_writer_t), intent(inout) :: self
-    type(parallel_t), intent(in) :: par
     integer, intent(in) :: n_frames
     real(dp), intent(in) :: frame_times(:)
+    integer :: n
+    n = max(0, min(n_frames, size(frame_times)))
+    call ensure_capacity(self, max(n, 1))
+    self%n_frames = n
+    self%frame_times(1:n) = frame_times(1:n)
+    self%frame_sizes = unknown_size
+  end subroutine frame_restore
+
+  !> Reads the sizes of restored frames back from their files (rank 0).
+  subroutine resolve_sizes(self, err)
+    type(frame_writer_t), intent(inout) :: self
     type(error_t), intent(inout) :: err
     integer(hid_t) :: file_id
     integer :: i
     character(len=:), allocatable :: path
-    if (err%failed()) return
-    if (n_frames > size(frame_times) .or. n_frames < 0) then
-      call err%set(ERR_IO, 'frame restore: '//str(n_frames)//' frames but '//str(size(frame_times))//' times')
-      return
-    end if
-    call ensure_capacity(self, max(n_frames, 1))
-    self%n_frames = n_frames
-    self%frame_times(1:n_frames) = frame_times(1:n_frames)
-    self%frame_sizes = 0
-    if (par%is_root()) then
-      call h5u_quiet(.true.)   ! a missing frame is reported below, without HDF5's stack
-      do i = 1, n_frames
-        path = join_path(self%dir, frame_file_name(i - 1))
-        call h5u_open_serial(path, file_id, err)
-        call h5u_read_attr(file_id, 'n_bodies', self%frame_sizes(1, i), err)
-        call h5u_read_attr(file_id, 'n_points', self%frame_sizes(2, i), err)
-        call h5u_read_attr(file_id, 'n_triangles', self%frame_sizes(3, i), err)
-        call h5u_close_file(file_id, err)
-        if (err%failed()) then
-          call err%prefix("restart: frame file '"//path//"' written before the checkpoint: ")
-          exit
-        end if
-      end do
-      call h5u_quiet(.false.)
-      if (err%ok()) call write_indexes(self, err)
-    end if
-    call agree(par, err, 'restoring the frame list failed on rank 0')
-  end subroutine frame_restore
+    if (all(self%frame_sizes(1, 1:self%n_frames) /= unknown_size)) return
+    call h5u_quiet(.true.)   ! a missing frame is reported below, without HDF5's error stack
+    do i = 1, self%n_frames
+      if (self%frame_sizes(1, i) /= unknown_size) cycle
+      path = join_path(self%dir, frame_file_name(i - 1))
+      call h5u_open_serial(path, file_id, err)
+      call h5u_read_attr(file_id, 'n_bodies', self%frame_sizes(1, i), err)
+      call h5u_read_attr(file_id, 'n_points', self%frame_sizes(2, i), err)
+      call h5u_read_attr(file_id, 'n_triangles', self%frame_sizes(3, i), err)
+      call h5u_close_file(file_id, err)
+      if (err%failed()) then
+        call err%prefix("restart: frame file '"//path//"', written before the checkpoint: ")
+        exit
+      end if
+    end do
+    call h5u_quiet(.false.)
+  end subroutine resolve_sizes
 
   !> Writes frame number n_frames (0-based) at `time` [s]: all owned bodies of every rank
   !> and their surfaces; then the XDMF indexes. Collective.
@@ -217,6 +219,7 @@ contains
     self%frame_sizes(:, self%n_frames) = [n_bodies, n_points, n_triangles]
     if (par%is_root()) then
       call rename_file(temporary, final_path, err)
+      call resolve_sizes(self, err)
       if (err%ok()) call write_indexes(self, err)
     end if
     call agree(par, err, 'publishing a frame failed on rank 0')
@@ -228,11 +231,17 @@ contains
     real(dp), allocatable :: times(:)
     integer(i8), allocatable :: sizes(:, :)
     integer :: capacity
+    if (.not. allocated(self%frame_times)) then
+      allocate (self%frame_times(max(n, 16)), self%frame_sizes(3, max(n, 16)))
+      self%frame_times = 0.0_dp
+      self%frame_sizes = unknown_size
+      return
+    end if
     if (size(self%frame_times) >= n) return
     capacity = max(n, 2*size(self%frame_times))
     allocate (times(capacity), sizes(3, capacity))
     times = 0.0_dp
-    sizes = 0
+    sizes = unknown_size
     times(1:self%n_frames) = self%frame_times(1:self%n_frames)
     sizes(:, 1:self%n_frames) = self%frame_sizes(:, 1:self%n_frames)
     call move_alloc(times, self%frame_times)

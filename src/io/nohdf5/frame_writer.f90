@@ -49,14 +49,12 @@ contains
     if (par%rank >= 0) call err%set(ERR_IO, no_hdf5)
   end subroutine frame_init
 
-  subroutine frame_restore(self, par, n_frames, frame_times, err)
+  subroutine frame_restore(self, n_frames, frame_times)
     class(frame_writer_t), intent(inout) :: self
-    type(parallel_t), intent(in) :: par
     integer, intent(in) :: n_frames
     real(dp), intent(in) :: frame_times(:)
-    type(error_t), intent(inout) :: err
-    self%n_frames = min(n_frames, size(frame_times))
-    if (par%rank >= 0) call err%set(ERR_IO, no_hdf5)
+    self%n_frames = max(0, min(n_frames, size(frame_times)))
+    self%frame_times = frame_times(1:self%n_frames)
   end subroutine frame_restore
 
   subroutine frame_write(self, par, time, bodies, shapes, group_names, err)
