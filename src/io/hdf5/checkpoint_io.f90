@@ -1,0 +1,296 @@
+!> Checkpoints (docs/output.md): everything a run needs to continue, in one HDF5 file written
+!> with parallel HDF5 (each rank its owned bodies at its offset) under a temporary name and
+!> renamed when complete, so a crash never leaves a half checkpoint under the real name.
+!> Doubles are stored as IEEE f64: a restart continues from bitwise the same state.
+!>
+!> Reading checks, in this order, with ERR_CHECKPOINT and the path in every message: the
+!> file exists; it opens as HDF5 (a truncated or foreign file does not); it carries the
+!> 'format' attribute 'ricochet-checkpoint'; its version is the one this code writes; every
+!> dataset is there with the size the header announces. Whether the checkpoint fits the deck
+!> is for the caller (check_checkpoint_matches).
+module checkpoint_io
+  use kinds, only: dp, i8
+  use constants, only: name_length
+  use error_status, only: error_t, ERR_CHECKPOINT, ERR_INTERNAL
+  use string_utils, only: str, dirname
+  use parallel_env, only: parallel_t
+  use body_state, only: bodies_t
+  use file_system, only: make_directory, rename_file, file_exists
+  use checkpoint_meta, only: checkpoint_meta_t, checkpoint_magic, checkpoint_version, &
+                             check_checkpoint_matches
+  use h5_utils, only: hid_t, h5u_start, h5u_quiet, h5u_create_parallel, h5u_open_parallel, h5u_close_file, &
+                      h5u_create_group, h5u_open_group, h5u_close_group, h5u_has_attr, h5u_write, &
+                      h5u_write_strings, h5u_write_attr, h5u_read_attr, h5u_read_real_2d, h5u_read_real_1d, &
+                      h5u_read_int8_1d, h5u_read_int_1d, h5u_read_strings
+  implicit none
+  private
+  public :: write_checkpoint, read_checkpoint, check_checkpoint_matches, checkpoint_meta_t
+
+contains
+
+  !> Writes meta and the owned bodies of every rank to path (collective). The sum of owned
+  !> bodies over ranks must be meta%n_bodies_total.
+  subroutine write_checkpoint(par, path, meta, bodies, err)
+    type(parallel_t), intent(in) :: par
+    character(len=*), intent(in) :: path
+    type(checkpoint_meta_t), intent(in) :: meta
+    type(bodies_t), intent(in) :: bodies
+    type(error_t), intent(inout) :: err
+    integer(i8) :: n_local, n_total, offset, n_rows, n_counters
+    integer(hid_t) :: file_id, group_id
+    integer, allocatable :: fixed(:)
+    real(dp), allocatable :: frame_times(:), counters(:)
+    character(len=name_length), allocatable :: counter_names(:)
+    character(len=:), allocatable :: temporary
+    integer :: n
+    if (err%failed()) return
+    n = bodies%n_owned
+    n_local = n
+    n_total = par%sum(n_local)
+    offset = par%exscan(n_local)
+    if (n_total /= meta%n_bodies_total) then
+      call err%set(ERR_INTERNAL, "checkpoint '"//trim(path)//"': the ranks own "//str(n_total)// &
+                   ' bodies but the run has '//str(meta%n_bodies_total))
+      return
+    end if
+    if (par%is_root()) call make_directory(dirname(path), err)
+    call agree(par, err, "checkpoint '"//trim(path)//"': cannot create its folder on rank 0")
+    call h5u_start(err)
+    if (err%failed()) return
+
+    if (meta%n_frames > 0) then
+      if (.not. allocated(meta%frame_times)) then
+        call err%set(ERR_INTERNAL, "checkpoint '"//trim(path)//"': frame times missing")
+      else if (size(meta%frame_times) < meta%n_frames) then
+        call err%set(ERR_INTERNAL, "checkpoint '"//trim(path)//"': "//str(meta%n_frames)//' frames but '// &
+                     str(size(meta%frame_times))//' frame times')
+      end if
+      if (err%failed()) return
+    end if
+    ! Small arrays are written by rank 0 alone (the others take part with no rows).
+    allocate (frame_times(0), counters(0), counter_names(0))
+    if (par%is_root()) then
+      if (meta%n_frames > 0) frame_times = meta%frame_times(1:meta%n_frames)
+      if (allocated(meta%counters)) counters = meta%counters
+      if (allocated(meta%counter_names)) counter_names = meta%counter_names
+    end if
+    n_counters = 0
+    if (allocated(meta%counters)) n_counters = size(meta%counters)
+    if (allocated(meta%counter_names)) then
+      if (size(meta%counter_names) /= n_counters) then
+        call err%set(ERR_INTERNAL, "checkpoint '"//trim(path)//"': "//str(n_counters)//' counters but '// &
+                     str(size(meta%counter_names))//' counter names')
+        return
+      end if
+    else if (n_counters > 0) then
+      call err%set(ERR_INTERNAL, "checkpoint '"//trim(path)//"': counters without names")
+      return
+    end if
+    allocate (fixed(n))
+    fixed = merge(1, 0, bodies%fixed(1:n))
+
+    temporary = trim(path)//'.tmp'
+    call h5u_create_parallel(par, temporary, file_id, err)
+    call h5u_write_attr(file_id, 'format', checkpoint_magic, err)
+    call h5u_write_attr(file_id, 'version', checkpoint_version, err)
+    call h5u_write_attr(file_id, 'time', meta%time, err)
+    call h5u_write_attr(file_id, 'step', meta%step, err)
+    call h5u_write_attr(file_id, 'n_frames', meta%n_frames, err)
+    call h5u_write_attr(file_id, 'next_output_time', meta%next_output_time, err)
+    call h5u_write_attr(file_id, 'next_checkpoint_time', meta%next_checkpoint_time, err)
+    call h5u_write_attr(file_id, 'wall_time_before', meta%wall_time_before, err)
+    call h5u_write_attr(file_id, 'e0', meta%e0, err)
+    call h5u_write_attr(file_id, 'p0', meta%p0, err)
+    call h5u_write_attr(file_id, 'l0', meta%l0, err)
+    call h5u_write_attr(file_id, 'mass0', meta%mass0, err)
+    call h5u_write_attr(file_id, 'n_bodies_total', meta%n_bodies_total, err)
+    call h5u_write_attr(file_id, 'title', meta%title, err)
+    call h5u_write_attr(file_id, 'checksum', meta%checksum, err)
+    call h5u_write_attr(file_id, 'n_ranks', par%n_ranks, err)
+
+    call h5u_create_group(file_id, 'meta', group_id, err)
+    n_rows = meta%n_frames
+    call h5u_write(group_id, 'frame_times', frame_times, n_rows, 0_i8, err)
+    call h5u_write(group_id, 'counters', counters, n_counters, 0_i8, err)
+    call h5u_write_strings(group_id, 'counter_names', counter_names, n_counters, 0_i8, err)
+    call h5u_close_group(group_id)
+
+    call h5u_create_group(file_id, 'bodies', group_id, err)
+    call h5u_write(group_id, 'gid', bodies%gid(1:n), n_total, offset, err)
+    call h5u_write(group_id, 'shape_id', bodies%shape_id(1:n), n_total, offset, err)
+    call h5u_write(group_id, 'group_id', bodies%group_id(1:n), n_total, offset, err)
+    call h5u_write(group_id, 'fixed', fixed, n_total, offset, err)
+    call h5u_write(group_id, 'mass', bodies%mass(1:n), n_total, offset, err)
+    call h5u_write(group_id, 'inv_mass', bodies%inv_mass(1:n), n_total, offset, err)
+    call h5u_write(group_id, 'inertia', bodies%inertia(:, 1:n), n_total, offset, err)
+    call h5u_write(group_id, 'inv_inertia', bodies%inv_inertia(:, 1:n), n_total, offset, err)
+    call h5u_write(group_id, 'x', bodies%x(:, 1:n), n_total, offset, err)
+    call h5u_write(group_id, 'q', bodies%q(:, 1:n), n_total, offset, err)
+    call h5u_write(group_id, 'v', bodies%v(:, 1:n), n_total, offset, err)
+    call h5u_write(group_id, 'w', bodies%w(:, 1:n), n_total, offset, err)
+    call h5u_write(group_id, 'a', bodies%a(:, 1:n), n_total, offset, err)
+    call h5u_write(group_id, 'alpha', bodies%alpha(:, 1:n), n_total, offset, err)
+    call h5u_close_group(group_id)
+    call h5u_close_file(file_id, err)
+    call agree(par, err, 'writing a checkpoint failed on another rank')
+    if (err%failed()) then
+      call err%prefix("checkpoint '"//temporary//"': ")
+      return
+    end if
+    ! Complete on every rank: only now may it replace an older checkpoint of the same name.
+    call par%barrier()
+    if (par%is_root()) call rename_file(temporary, path, err)
+    call agree(par, err, 'publishing a checkpoint failed on rank 0')
+  end subroutine write_checkpoint
+
+  !> Reads a whole checkpoint on every rank (collective): all bodies come back as owned
+  !> bodies of every rank (redistribution is the caller's business).
+  subroutine read_checkpoint(par, path, meta, bodies, err)
+    type(parallel_t), intent(in) :: par
+    character(len=*), intent(in) :: path
+    type(checkpoint_meta_t), intent(out) :: meta
+    type(bodies_t), intent(inout) :: bodies
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: file_id
+    character(len=:), allocatable :: format, title
+    if (err%failed()) return
+    if (.not. file_exists(path)) then
+      call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"' does not exist")
+      return
+    end if
+    call h5u_start(err)
+    if (err%failed()) return
+    call h5u_quiet(.true.)
+    call h5u_open_parallel(par, path, file_id, err)
+    if (err%failed()) then
+      call h5u_quiet(.false.)
+      call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"' cannot be opened as HDF5: "// &
+                   'it is truncated, damaged or not an HDF5 file')
+      return
+    end if
+
+    if (.not. h5u_has_attr(file_id, 'format')) then
+      call err%set(ERR_CHECKPOINT, "'"//trim(path)//"' is not a ricochet checkpoint (no 'format' attribute)")
+    else
+      call h5u_read_attr(file_id, 'format', format, err)
+      if (err%ok() .and. format /= checkpoint_magic) then
+        call err%set(ERR_CHECKPOINT, "'"//trim(path)//"' is not a ricochet checkpoint (its format is '"// &
+                     format//"')")
+      end if
+    end if
+    if (err%ok()) then
+      call h5u_read_attr(file_id, 'version', meta%version, err)
+      if (err%ok() .and. meta%version /= checkpoint_version) then
+        call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"' has format version "//str(meta%version)// &
+                     '; this ricochet reads version '//str(checkpoint_version))
+      end if
+    end if
+    if (err%ok()) then
+      call read_contents(file_id, meta, bodies, title, err)
+      if (err%ok()) meta%title = title
+    end if
+    call h5u_close_file(file_id, err)
+    call h5u_quiet(.false.)
+    if (err%failed()) then
+      err%code = ERR_CHECKPOINT
+      if (index(err%message, trim(path)) == 0) call err%prefix("checkpoint '"//trim(path)//"' is damaged: ")
+    end if
+  end subroutine read_checkpoint
+
+  subroutine read_contents(file_id, meta, bodies, title, err)
+    integer(hid_t), intent(in) :: file_id
+    type(checkpoint_meta_t), intent(inout) :: meta
+    type(bodies_t), intent(inout) :: bodies
+    character(len=:), allocatable, intent(inout) :: title
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: group_id
+    integer(i8), allocatable :: gid(:)
+    integer, allocatable :: shape_id(:), group_ids(:), fixed(:)
+    real(dp), allocatable :: mass(:), inv_mass(:), inertia(:, :), inv_inertia(:, :), x(:, :), q(:, :), &
+                             v(:, :), w(:, :), a(:, :), alpha(:, :)
+    integer :: n
+
+    meta%magic = checkpoint_magic
+    call h5u_read_attr(file_id, 'time', meta%time, err)
+    call h5u_read_attr(file_id, 'step', meta%step, err)
+    call h5u_read_attr(file_id, 'n_frames', meta%n_frames, err)
+    call h5u_read_attr(file_id, 'next_output_time', meta%next_output_time, err)
+    call h5u_read_attr(file_id, 'next_checkpoint_time', meta%next_checkpoint_time, err)
+    call h5u_read_attr(file_id, 'wall_time_before', meta%wall_time_before, err)
+    call h5u_read_attr(file_id, 'e0', meta%e0, err)
+    call h5u_read_attr(file_id, 'p0', meta%p0, err)
+    call h5u_read_attr(file_id, 'l0', meta%l0, err)
+    call h5u_read_attr(file_id, 'mass0', meta%mass0, err)
+    call h5u_read_attr(file_id, 'n_bodies_total', meta%n_bodies_total, err)
+    call h5u_read_attr(file_id, 'title', title, err)
+    call h5u_read_attr(file_id, 'checksum', meta%checksum, err)
+
+    call h5u_open_group(file_id, 'meta', group_id, err)
+    call h5u_read_real_1d(group_id, 'frame_times', meta%frame_times, err)
+    call h5u_read_real_1d(group_id, 'counters', meta%counters, err)
+    call h5u_read_strings(group_id, 'counter_names', meta%counter_names, err)
+    call h5u_close_group(group_id)
+    if (err%failed()) return
+    if (size(meta%frame_times) /= meta%n_frames) then
+      call err%set(ERR_CHECKPOINT, str(size(meta%frame_times))//' frame times for '//str(meta%n_frames)//' frames')
+      return
+    end if
+    if (size(meta%counters) /= size(meta%counter_names)) then
+      call err%set(ERR_CHECKPOINT, str(size(meta%counters))//' counters but '// &
+                   str(size(meta%counter_names))//' counter names')
+      return
+    end if
+
+    call h5u_open_group(file_id, 'bodies', group_id, err)
+    call h5u_read_int8_1d(group_id, 'gid', gid, err)
+    call h5u_read_int_1d(group_id, 'shape_id', shape_id, err)
+    call h5u_read_int_1d(group_id, 'group_id', group_ids, err)
+    call h5u_read_int_1d(group_id, 'fixed', fixed, err)
+    call h5u_read_real_1d(group_id, 'mass', mass, err)
+    call h5u_read_real_1d(group_id, 'inv_mass', inv_mass, err)
+    call h5u_read_real_2d(group_id, 'inertia', 3, inertia, err)
+    call h5u_read_real_2d(group_id, 'inv_inertia', 3, inv_inertia, err)
+    call h5u_read_real_2d(group_id, 'x', 3, x, err)
+    call h5u_read_real_2d(group_id, 'q', 4, q, err)
+    call h5u_read_real_2d(group_id, 'v', 3, v, err)
+    call h5u_read_real_2d(group_id, 'w', 3, w, err)
+    call h5u_read_real_2d(group_id, 'a', 3, a, err)
+    call h5u_read_real_2d(group_id, 'alpha', 3, alpha, err)
+    call h5u_close_group(group_id)
+    if (err%failed()) return
+    n = size(gid)
+    if (int(n, i8) /= meta%n_bodies_total .or. size(shape_id) /= n .or. size(group_ids) /= n .or. &
+        size(fixed) /= n .or. size(mass) /= n .or. size(inv_mass) /= n .or. size(inertia, 2) /= n .or. &
+        size(inv_inertia, 2) /= n .or. size(x, 2) /= n .or. size(q, 2) /= n .or. size(v, 2) /= n .or. &
+        size(w, 2) /= n .or. size(a, 2) /= n .or. size(alpha, 2) /= n) then
+      call err%set(ERR_CHECKPOINT, 'the body datasets do not all hold n_bodies_total = '// &
+                   str(meta%n_bodies_total)//' rows')
+      return
+    end if
+    call bodies%allocate(n)
+    bodies%n_owned = n
+    bodies%n_ghost = 0
+    bodies%gid = gid
+    bodies%shape_id = shape_id
+    bodies%group_id = group_ids
+    bodies%fixed = fixed /= 0
+    bodies%mass = mass
+    bodies%inv_mass = inv_mass
+    bodies%inertia = inertia
+    bodies%inv_inertia = inv_inertia
+    bodies%x = x
+    bodies%q = q
+    bodies%v = v
+    bodies%w = w
+    bodies%a = a
+    bodies%alpha = alpha
+  end subroutine read_contents
+
+  subroutine agree(par, err, message)
+    type(parallel_t), intent(in) :: par
+    type(error_t), intent(inout) :: err
+    character(len=*), intent(in) :: message
+    if (par%any(err%failed()) .and. err%ok()) call err%set(ERR_CHECKPOINT, message)
+  end subroutine agree
+
+end module checkpoint_io
