@@ -14,9 +14,9 @@ module simulation
   use conservation, only: system_totals_t, compute_totals
   use newmark_integrator, only: free_flight_stats_t
   use free_flight, only: advance_bodies
-  use history_writer, only: history_writer_t, history_record_t
+  use history_writer, only: history_writer_t, history_record_t, history_fresh_start
   use frame_writer, only: frame_writer_t
-  use checkpoint_meta, only: checkpoint_meta_t
+  use checkpoint_meta, only: checkpoint_meta_t, bodies_checksum
   use checkpoint_io, only: write_checkpoint, read_checkpoint, check_checkpoint_matches
   implicit none
   private
@@ -110,7 +110,9 @@ contains
     else
       call compute_totals(par, self%bodies, deck%run%gravity, self%initial)
     end if
-    call self%history%init(par, join_path(self%output_dir, 'history.csv'), self%time, err)
+    ! A fresh run starts a new history; a restart keeps the rows up to its time.
+    call self%history%init(par, join_path(self%output_dir, 'history.csv'), &
+                           merge(self%time, history_fresh_start, self%restarted), err)
     if (err%failed()) return
     ! History rows fall at the first step end at or after each multiple of the interval; the
     ! next one follows from the time alone, so a restart needs nothing more.
@@ -301,8 +303,6 @@ contains
     class(simulation_t), intent(in) :: self
     type(parallel_t), intent(in) :: par
     type(checkpoint_meta_t), intent(out) :: meta
-    integer :: i
-    real(dp) :: checksum
     meta%time = self%time
     meta%step = self%step
     meta%n_frames = self%frames%n_frames
@@ -316,12 +316,7 @@ contains
     meta%mass0 = self%initial%mass
     meta%n_bodies_total = self%n_total
     meta%title = self%deck%run%title
-    ! Fingerprint of the deck's bodies: masses weighted by global id, summed over ranks.
-    checksum = 0.0_dp
-    do i = 1, self%bodies%n_owned
-      checksum = checksum + self%bodies%mass(i)*real(self%bodies%gid(i), dp)
-    end do
-    meta%checksum = par%sum(checksum)
+    meta%checksum = bodies_checksum(par, self%bodies)
   end subroutine fill_meta
 
   subroutine progress(self, par)
