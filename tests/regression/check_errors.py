@@ -1,0 +1,58 @@
+"""Bad input ends in one clear line on stderr and a non-zero exit, never a crash or a
+traceback: decks, meshes, checkpoints and the command line.
+
+Usage: check_errors.py EXE WORKDIR DATA_DIR"""
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(__file__))
+from ricochet_run import Checks
+
+exe, work, data = sys.argv[1:4]
+os.makedirs(work, exist_ok=True)
+c = Checks()
+
+
+def expect_error(args, fragments, what):
+    proc = subprocess.run([exe, *args], capture_output=True, text=True, cwd=work)
+    lines = proc.stderr.strip().splitlines()
+    c.check(proc.returncode != 0, f"{what}: non-zero exit (got {proc.returncode})")
+    c.check(len(lines) == 1 and lines[0].startswith("ricochet: error: "), f"{what}: one error line, got {lines}")
+    for fragment in fragments:
+        c.check(fragment in proc.stderr, f"{what}: message names '{fragment}': {proc.stderr.strip()}")
+
+
+def deck(name, text):
+    path = os.path.join(work, name)
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+good_run = "&run t_end = 1.0, dt_max = 0.1 /\n"
+expect_error([], ["no deck"], "no arguments")
+expect_error(["--frobnicate", "x.nml"], ["--frobnicate"], "unknown option")
+expect_error(["missing.nml"], ["missing.nml"], "missing deck")
+expect_error([deck("typo.nml", good_run + "&body name = 'ball', shape = 'sphere', radus = 1.0, mass = 1.0 /\n")],
+             ["typo.nml:2", "&body #1 'ball'", "radus"], "unknown variable")
+expect_error([deck("nan.nml", "&run t_end = nan, dt_max = 0.1 /\n&body shape = 'sphere', radius = 1, mass = 1 /\n")],
+             ["nan.nml:1", "&run", "t_end"], "NaN")
+expect_error([deck("open.nml", good_run + f"&body name = 'bunny', shape = 'mesh', mesh_file = '{data}/meshes/stanford-bunny.obj', mass = 1.0 /\n")],
+             ["stanford-bunny.obj", "open", "223 boundary edge", "&body #1 'bunny'"], "open mesh")
+expect_error([deck("suzanne.nml", good_run + f"&body name = 'monkey', shape = 'mesh', mesh_file = '{data}/meshes/suzanne.obj', mass = 1.0 /\n")],
+             ["suzanne.obj", "non-manifold"], "non-manifold mesh")
+ok_deck = deck("ok.nml", good_run + "&body name = 'ball', shape = 'sphere', radius = 1.0, mass = 1.0 /\n")
+with open(os.path.join(work, "truncated.h5"), "wb") as f:
+    f.write(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)
+expect_error([ok_deck, "--restart", "truncated.h5"], ["truncated.h5"], "truncated checkpoint")
+expect_error([ok_deck, "--restart", "nowhere.h5"], ["nowhere.h5"], "missing checkpoint")
+expect_error([ok_deck, "--restart"], ["--restart needs"], "--restart without a file")
+# --check prints the effective deck, and that deck is itself valid.
+proc = subprocess.run([exe, "--check", ok_deck], capture_output=True, text=True, cwd=work)
+c.check(proc.returncode == 0 and "&integrator" in proc.stdout and "newmark_beta" in proc.stdout,
+        "--check prints the effective deck with defaults filled in")
+effective = deck("effective.nml", proc.stdout)
+proc = subprocess.run([exe, "--check", effective], capture_output=True, text=True, cwd=work)
+c.check(proc.returncode == 0, f"the effective deck is itself a valid deck: {proc.stderr.strip()}")
+c.finish()

@@ -1,0 +1,31 @@
+# Regression cases that run the ricochet program on decks (included from tests/CMakeLists.txt).
+set(RICOCHET_REGRESSION_DIR ${CMAKE_CURRENT_SOURCE_DIR}/regression)
+
+# Every deck shipped in input/ validates.
+file(GLOB shipped_decks CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/input/*.nml ${PROJECT_SOURCE_DIR}/input/validation/*.nml)
+foreach(deck IN LISTS shipped_decks)
+  get_filename_component(name ${deck} NAME_WE)
+  add_test(NAME regression.check_deck.${name} COMMAND ricochet --check ${deck})
+  set_tests_properties(regression.check_deck.${name} PROPERTIES LABELS regression)
+endforeach()
+
+function(ricochet_python_case name script)
+  set(workdir ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${name})
+  file(MAKE_DIRECTORY ${workdir})
+  add_test(NAME regression.${name}
+           COMMAND ${RICOCHET_PYTHON} ${RICOCHET_REGRESSION_DIR}/${script} ${ARGN}
+           WORKING_DIRECTORY ${workdir})
+  set_tests_properties(regression.${name} PROPERTIES LABELS "regression" ENVIRONMENT "${RICOCHET_TEST_ENV}"
+                       TIMEOUT 600)
+endfunction()
+
+if(RICOCHET_USE_HDF5)
+  ricochet_python_case(free_fall check_free_fall.py $<TARGET_FILE:ricochet>
+                       ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_free_fall)
+  ricochet_python_case(restart_bitwise check_restart.py $<TARGET_FILE:ricochet>
+                       ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise)
+  ricochet_python_case(free_rotation_deck check_free_rotation.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_free_rotation_deck ${RICOCHET_TEST_DATA}/free_rotation_I123.csv)
+endif()
+ricochet_python_case(input_errors check_errors.py $<TARGET_FILE:ricochet>
+                     ${CMAKE_CURRENT_BINARY_DIR}/run/regression_input_errors ${RICOCHET_TEST_DATA})
