@@ -36,6 +36,7 @@ module simulation
     type(history_writer_t) :: history
     real(dp) :: time = 0.0_dp
     integer(i8) :: step = 0
+    integer(i8) :: first_step = 0             !< step this run started from (restarts)
     integer(i8) :: n_total = 0
     real(dp) :: next_output = 0.0_dp
     real(dp) :: output_interval = 0.0_dp      !< [s] effective (auto resolved)
@@ -154,18 +155,35 @@ contains
     end if
     self%time = meta%time
     self%step = meta%step
+    self%first_step = meta%step
     self%next_output = meta%next_output_time
     self%next_checkpoint = meta%next_checkpoint_time
     self%wall_before = meta%wall_time_before
-    self%initial%kinetic_translational = meta%e0
-    self%initial%kinetic_rotational = 0.0_dp
-    self%initial%potential = 0.0_dp
+    ! The initial totals, for the conservation errors (counters: see fill_meta).
+    self%initial%kinetic_translational = counter(meta, 'initial_kinetic_translational')
+    self%initial%kinetic_rotational = counter(meta, 'initial_kinetic_rotational')
+    self%initial%potential = counter(meta, 'initial_potential')
+    self%max_energy_error = counter(meta, 'max_energy_error')
+    self%max_momentum_error = counter(meta, 'max_momentum_error')
+    self%max_angular_momentum_error = counter(meta, 'max_angular_momentum_error')
     self%initial%momentum = meta%p0
     self%initial%angular_momentum = meta%l0
     self%initial%mass = meta%mass0
     call self%frames%restore(meta%n_frames, meta%frame_times)
     self%restarted = .true.
   end subroutine restart_from
+
+  !> A named counter of a checkpoint (0 if absent).
+  pure real(dp) function counter(meta, name)
+    type(checkpoint_meta_t), intent(in) :: meta
+    character(len=*), intent(in) :: name
+    integer :: k
+    counter = 0.0_dp
+    if (.not. allocated(meta%counter_names)) return
+    do k = 1, size(meta%counter_names)
+      if (meta%counter_names(k) == name) counter = meta%counters(k)
+    end do
+  end function counter
 
   subroutine copy_body(from, i, to, j)
     type(bodies_t), intent(in) :: from
@@ -225,7 +243,7 @@ contains
         call self%write_frame(par, err)
         if (err%failed()) return
       end if
-      if (hits_checkpoint) then
+      if (hits_checkpoint .and. self%time < t_end) then
         call self%write_checkpoint_now(par, 'checkpoint_'//str6(self%n_checkpoints + 1), err)
         if (err%failed()) return
       end if
@@ -317,6 +335,11 @@ contains
     meta%n_bodies_total = self%n_total
     meta%title = self%deck%run%title
     meta%checksum = bodies_checksum(par, self%bodies)
+    meta%counter_names = [character(len=name_length) :: 'initial_kinetic_translational', &
+                          'initial_kinetic_rotational', 'initial_potential', 'max_energy_error', &
+                          'max_momentum_error', 'max_angular_momentum_error']
+    meta%counters = [self%initial%kinetic_translational, self%initial%kinetic_rotational, self%initial%potential, &
+                     self%max_energy_error, self%max_momentum_error, self%max_angular_momentum_error]
   end subroutine fill_meta
 
   subroutine progress(self, par)
@@ -340,17 +363,19 @@ contains
     wall = par%wtime() - self%wall_start
     if (.not. par%is_root()) return
     per_step = wall/max(real(self%step, dp), 1.0_dp)
-    write (*, '(a)') 'ricochet: run finished'
-    write (*, '(a,f0.3,a,i0,a,i0,a)') '  wall time            ', wall, ' s (', par%n_ranks, ' ranks), ', &
+    write (*, '(a)') 'ricochet: run finished at t = '//str(self%time, '(g0.6)')//' s'
+    write (*, '(a,es10.3,a,i0,a,i0,a)') '  wall time            ', wall, ' s on ', par%n_ranks, ' rank(s), ', &
       self%step, ' steps in all'
-    write (*, '(a,es10.3,a,es10.3,a)') '  time per step        ', per_step, ' s, ', &
-      per_step/max(real(self%n_total, dp), 1.0_dp), ' s per body'
-    write (*, '(a,f0.3,a,es10.3,a)') '  integration time     ', self%integration_wall, ' s (', &
-      real(self%n_total, dp)*real(self%step, dp)/max(self%integration_wall, tiny(1.0_dp)), ' body updates per s)'
+    write (*, '(a,es10.3,a,es10.3,a)') '  time per step        ', per_step, ' s (', &
+      per_step/max(real(self%n_total, dp), 1.0_dp), ' s per body)'
+    write (*, '(a,es10.3,a,es10.3,a)') '  integration time     ', self%integration_wall, ' s (', &
+      real(self%n_total, dp)*real(self%step - self%first_step, dp)/max(self%integration_wall, tiny(1.0_dp)), &
+      ' body updates per s)'
     write (*, '(a,i0,a,i0,a)') '  bodies               ', self%n_total, ' in ', self%shapes%n_shapes, ' distinct shapes'
-    write (*, '(a,es10.3)') '  energy error (max)   ', self%max_energy_error
-    write (*, '(a,es10.3)') '  momentum error (max) ', self%max_momentum_error
-    write (*, '(a,es10.3)') '  ang. momentum error  ', self%max_angular_momentum_error
+    write (*, '(a,es10.3,a)') '  energy error (max)   ', self%max_energy_error, '  (relative to kinetic + |potential|)'
+    write (*, '(a,es10.3,a)') '  momentum error (max) ', self%max_momentum_error, '  (P - P0 - M g t, relative)'
+    write (*, '(a,es10.3,a)') '  ang. momentum error  ', self%max_angular_momentum_error, &
+      '  (about the centre of mass, relative)'
     write (*, '(a,i0,a,i0,a,i0)') '  rotation iterations  ', self%flight%iterations_total, ' (max per update ', &
       self%flight%iterations_max, '), not converged: ', self%flight%not_converged
     write (*, '(a,i0,a)') '  frames written       ', self%frames%n_frames, ' in '//self%output_dir

@@ -9,3 +9,16 @@ if(RICOCHET_USE_HDF5)
   set_tests_properties(mpi.parallel_frame_contents PROPERTIES FIXTURES_REQUIRED parallel_frames
                        DEPENDS mpi.test_parallel_output LABELS "mpi;io" ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 120)
 endif()
+
+# The same deck on 1 and 2 ranks gives bitwise identical results.
+if(RICOCHET_USE_HDF5)
+  set(workdir ${CMAKE_CURRENT_BINARY_DIR}/run/mpi_rank_independence)
+  file(MAKE_DIRECTORY ${workdir})
+  add_test(NAME mpi.rank_independence
+           COMMAND ${RICOCHET_PYTHON} ${CMAKE_CURRENT_SOURCE_DIR}/mpi/check_rank_independence.py
+                   $<TARGET_FILE:ricochet> ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${workdir}
+                   ${MPIEXEC_EXECUTABLE} ${MPIEXEC_PREFLAGS}
+           WORKING_DIRECTORY ${workdir})
+  set_tests_properties(mpi.rank_independence PROPERTIES LABELS "mpi;regression" ENVIRONMENT "${RICOCHET_TEST_ENV}"
+                       TIMEOUT 300)
+endif()
