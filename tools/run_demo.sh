@@ -13,9 +13,9 @@ out=$("$build/app/ricochet" --print-output-dir "$deck")
 cat <<TXT
 
 Output is in $out:
-  surfaces.xmf  the moving surfaces (open in ParaView: paraview $out/surfaces.xmf,
-                choose the Xdmf3ReaderS reader, press Apply, then Play)
-  bodies.xmf    body centres with velocity and angular velocity (apply Glyph for arrows)
+  surfaces.xmf  the moving surfaces: paraview $out/surfaces.xmf
+                (choose the XDMF Reader, press Apply, then Play; colour by body_id)
+  bodies.xmf    body centres with velocity, angular velocity, orientation (Glyph filter for arrows)
   history.csv   energies, momentum, step sizes; plot with
                 .venv/bin/python tools/plot_history.py $out/history.csv
 TXT

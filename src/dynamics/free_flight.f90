@@ -1,39 +1,93 @@
 !> Free flight of every owned body over one step, with the rotation method the deck chose:
-!> 'newmark' (Newmark with the iterative implicit correction, newmark_integrator) or
-!> 'exact' (the closed-form torque-free motion, free_rotation_exact). The centre of mass
-!> always follows Newmark, which is the exact parabola under constant gravity.
+!>  - 'newmark': Newmark with the iterative implicit correction (newmark_integrator), step by
+!>    step;
+!>  - 'exact': the closed-form motion between contacts. Each body is *anchored* at the state
+!>    it had after its last change (start of the run, an impulse, a checkpoint) and its pose
+!>    at time t is evaluated from the anchor: the centre of mass on the exact parabola, the
+!>    orientation by the free rigid body's flow (free_rotation_exact). Nothing accumulates
+!>    from step to step, so the error does not grow with the number of steps.
+!> Anchors are re-taken at every checkpoint, so a run restarted from a checkpoint repeats the
+!> same arithmetic as the run that wrote it (bitwise restarts).
 module free_flight
   use kinds, only: dp
   use input_config, only: integrator_config_t, ROTATION_EXACT
   use body_state, only: bodies_t
-  use newmark_integrator, only: advance_free_flight, newmark_translate, free_flight_stats_t
-  use free_rotation_exact, only: exact_rotate
+  use newmark_integrator, only: advance_free_flight, free_flight_stats_t
+  use free_rotation_exact, only: free_rotor_t
   implicit none
   private
-  public :: advance_bodies
+  public :: free_flight_t
+
+  type :: free_flight_t
+    logical :: exact = .false.
+    type(free_rotor_t), allocatable :: rotors(:)   !< exact mode: per body, from its anchor
+    real(dp), allocatable :: t0(:)                 !< anchor time [s]
+    real(dp), allocatable :: x0(:, :), v0(:, :)    !< centre of mass and its velocity at t0
+    logical, allocatable :: anchored(:)
+  contains
+    procedure :: init => flight_init
+    procedure :: release => flight_release
+    procedure :: release_all => flight_release_all
+    procedure :: advance => flight_advance
+  end type free_flight_t
 
 contains
 
-  subroutine advance_bodies(bodies, h, gravity, config, stats)
+  subroutine flight_init(self, n_bodies, config)
+    class(free_flight_t), intent(inout) :: self
+    integer, intent(in) :: n_bodies
+    type(integrator_config_t), intent(in) :: config
+    self%exact = config%rotation == ROTATION_EXACT
+    if (.not. self%exact) return
+    if (allocated(self%rotors)) deallocate (self%rotors, self%t0, self%x0, self%v0, self%anchored)
+    allocate (self%rotors(n_bodies), self%t0(n_bodies), self%x0(3, n_bodies), self%v0(3, n_bodies), &
+              self%anchored(n_bodies))
+    self%anchored = .false.
+  end subroutine flight_init
+
+  !> Body i's velocity or angular velocity changed (an impulse): re-anchor at its next step.
+  elemental subroutine flight_release(self, i)
+    class(free_flight_t), intent(inout) :: self
+    integer, intent(in) :: i
+    if (self%exact) self%anchored(i) = .false.
+  end subroutine flight_release
+
+  subroutine flight_release_all(self)
+    class(free_flight_t), intent(inout) :: self
+    if (self%exact) self%anchored = .false.
+  end subroutine flight_release_all
+
+  !> Moves every owned body from time_old to time_new = time_old + h.
+  subroutine flight_advance(self, bodies, time_old, time_new, h, gravity, config, stats)
+    class(free_flight_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
-    real(dp), intent(in) :: h             !< step [s]
-    real(dp), intent(in) :: gravity(3)    !< [m/s^2]
+    real(dp), intent(in) :: time_old, time_new   !< [s]
+    real(dp), intent(in) :: h                    !< time_new - time_old as the step uses it [s]
+    real(dp), intent(in) :: gravity(3)           !< [m/s^2]
     type(integrator_config_t), intent(in) :: config
     type(free_flight_stats_t), intent(inout) :: stats
     integer :: i
-    if (config%rotation /= ROTATION_EXACT) then
+    real(dp) :: tau
+    if (.not. self%exact) then
       call advance_free_flight(bodies, h, gravity, config, stats)
       return
     end if
-    ! Exact rotation: no torque acts between contacts (gravity acts at the centre of mass),
-    ! so the rotation is the free rigid body's, evaluated in closed form at any h.
     do i = 1, bodies%n_owned
       if (bodies%fixed(i)) cycle
-      call newmark_translate(bodies%x(:, i), bodies%v(:, i), bodies%a(:, i), gravity, h, &
-                             config%newmark_beta, config%newmark_gamma)
-      call exact_rotate(bodies%q(:, i), bodies%w(:, i), bodies%inertia(:, i), h)
+      if (.not. self%anchored(i)) then
+        call self%rotors(i)%init(bodies%inertia(:, i), bodies%q(:, i), bodies%w(:, i))
+        self%t0(i) = time_old
+        self%x0(:, i) = bodies%x(:, i)
+        self%v0(:, i) = bodies%v(:, i)
+        self%anchored(i) = .true.
+      end if
+      tau = time_new - self%t0(i)
+      bodies%x(:, i) = self%x0(:, i) + self%v0(:, i)*tau + (0.5_dp*tau*tau)*gravity
+      bodies%v(:, i) = self%v0(:, i) + tau*gravity
+      bodies%a(:, i) = gravity
+      call self%rotors(i)%evaluate(tau, bodies%q(:, i), bodies%w(:, i))
       stats%rotation_updates = stats%rotation_updates + 1
     end do
-  end subroutine advance_bodies
+  end subroutine flight_advance
 
 end module free_flight

@@ -13,7 +13,7 @@ module simulation
   use body_builder, only: build_shapes, build_bodies, count_bodies, owned_range
   use conservation, only: system_totals_t, compute_totals
   use newmark_integrator, only: free_flight_stats_t
-  use free_flight, only: advance_bodies
+  use free_flight, only: free_flight_t
   use history_writer, only: history_writer_t, history_record_t, history_fresh_start
   use frame_writer, only: frame_writer_t
   use checkpoint_meta, only: checkpoint_meta_t, bodies_checksum
@@ -54,6 +54,7 @@ module simulation
     real(dp) :: max_momentum_error = 0.0_dp
     real(dp) :: max_angular_momentum_error = 0.0_dp
     type(free_flight_stats_t) :: flight
+    type(free_flight_t) :: propagator         !< moves bodies between events
     logical :: restarted = .false.
   contains
     procedure :: init => simulation_init
@@ -91,6 +92,7 @@ contains
     call owned_range(self%n_total, par%rank, par%n_ranks, first, last)
     call build_bodies(deck, self%shapes, shape_of_group, deck%run%gravity, first, last, self%bodies, err)
     if (err%failed()) return
+    call self%propagator%init(self%bodies%n_owned, deck%integrator)
 
     if (deck%output%checkpoint_interval > 0.0_dp) then
       self%next_checkpoint = deck%output%checkpoint_interval
@@ -209,7 +211,7 @@ contains
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
-    real(dp) :: h, t_end, dt_max, target, clock
+    real(dp) :: h, t_end, dt_max, target, clock, time_new
     logical :: hits_output, hits_checkpoint
 
     t_end = self%deck%run%t_end
@@ -222,16 +224,18 @@ contains
       else
         h = dt_max
       end if
+      if (h == target - self%time) then
+        time_new = target          ! exactly: output times stay k*interval, with no drift
+      else
+        time_new = self%time + h
+      end if
       clock = par%wtime()
-      call advance_bodies(self%bodies, h, self%deck%run%gravity, self%deck%integrator, self%flight)
+      call self%propagator%advance(self%bodies, self%time, time_new, h, self%deck%run%gravity, &
+                                   self%deck%integrator, self%flight)
       self%integration_wall = self%integration_wall + (par%wtime() - clock)
       self%step = self%step + 1
       self%last_dt = h
-      if (h == target - self%time) then
-        self%time = target          ! exactly: output times stay k*interval, with no drift
-      else
-        self%time = self%time + h
-      end if
+      self%time = time_new
       hits_output = self%time >= self%next_output
       hits_checkpoint = self%time >= self%next_checkpoint
       if (hits_output .or. self%time >= t_end .or. self%time >= self%next_history) then
@@ -314,6 +318,8 @@ contains
     end if
     call self%fill_meta(par, meta)
     call write_checkpoint(par, join_path(self%output_dir, name//'.h5'), meta, self%bodies, err)
+    ! Exact flight re-anchors at the checkpoint's state, as a run restarted from it will.
+    call self%propagator%release_all()
   end subroutine write_checkpoint_now
 
   !> What a checkpoint needs besides the bodies, and the deck fingerprint it is checked with.

@@ -4,7 +4,8 @@ step counts and identical frames after T/2. The restarted run continues in a cop
 first run's folder cut back to what a crash just after T/2 would leave (frames and
 history beyond T/2 removed or left half-written). A checkpoint of another deck is refused.
 
-Usage: check_restart.py EXE DECK WORKDIR"""
+Usage: check_restart.py EXE DECK WORKDIR [ROTATION]
+ROTATION ('exact' or 'newmark') runs a copy of the deck with that &integrator rotation."""
 import os
 import shutil
 import sys
@@ -20,7 +21,23 @@ def frames_time(path):
     with h5py.File(path, "r") as f:
         return float(f.attrs["time"])
 
+import re
+
+
+def absolute_meshes(text, deck):
+    return re.sub(r"mesh_file = '([^']+)'",
+                  lambda m: "mesh_file = '" + os.path.normpath(
+                      os.path.join(os.path.dirname(os.path.abspath(deck)), m.group(1))) + "'", text)
+
+
 exe, deck, work = sys.argv[1:4]
+os.makedirs(work, exist_ok=True)
+if len(sys.argv) > 4:
+    with open(deck) as f:
+        text = absolute_meshes(f.read(), deck)
+    deck = os.path.join(work, "deck.nml")
+    with open(deck, "w") as f:
+        f.write(text + f"\n&integrator rotation = '{sys.argv[4]}' /\n")
 c = Checks()
 straight, restarted = os.path.join(work, "straight"), os.path.join(work, "restarted")
 for d in (straight, restarted):
@@ -63,13 +80,8 @@ c.check(len(ha["time"]) == len(hb["time"]) and (ha["time"] == hb["time"]).all()
         "history after the restart: the same rows as the straight run's (half-written row dropped)")
 # A checkpoint from another deck (other title and bodies) is refused, naming the file.
 other = os.path.join(work, "other.nml")
-import re
 with open(deck) as f:
-    text = f.read().replace("title = '", "title = 'another ")
-# the copy lives elsewhere: make its mesh paths absolute
-text = re.sub(r"mesh_file = '([^']+)'",
-              lambda m: "mesh_file = '" + os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(deck)), m.group(1))) + "'",
-              text)
+    text = absolute_meshes(f.read().replace("title = '", "title = 'another "), deck)
 with open(other, "w") as f:
     f.write(text.replace("density = 7800.0", "density = 7700.0"))
 proc = run(exe, other, os.path.join(work, "other"), "--restart", middle, expect_ok=False)
