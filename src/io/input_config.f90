@@ -25,7 +25,8 @@ module input_config
     real(dp) :: newmark_gamma = 0.5_dp
     real(dp) :: rotation_tolerance = 1.0e-14_dp   !< relative change of the rotation update [-]
     integer :: rotation_max_iterations = 50
-    character(len=16) :: rotation = ROTATION_NEWMARK   !< 'newmark' or 'exact'
+    !> 'exact' (closed-form torque-free flight, default: docs/rotation.md, docs/benchmarks.md) or 'newmark'
+    character(len=16) :: rotation = ROTATION_EXACT
   end type integrator_config_t
 
   type :: contact_config_t

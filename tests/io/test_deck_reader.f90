@@ -142,7 +142,7 @@ contains
     call check(deck%run%title == 'ricochet run' .and. all(deck%run%gravity == 0.0_dp), 'run defaults')
     call check(deck%integrator%newmark_beta == 0.25_dp .and. deck%integrator%newmark_gamma == 0.5_dp .and. &
                deck%integrator%rotation_tolerance == 1.0e-14_dp .and. &
-               deck%integrator%rotation_max_iterations == 50 .and. deck%integrator%rotation == 'newmark', &
+               deck%integrator%rotation_max_iterations == 50 .and. deck%integrator%rotation == 'exact', &
                'integrator defaults')
     call check(deck%contact%restitution == 0.5_dp .and. deck%contact%friction == 0.0_dp .and. &
                deck%contact%min_separation == DECK_AUTO, 'contact defaults (min_separation auto)')

@@ -24,8 +24,8 @@ if(RICOCHET_USE_HDF5)
                        ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_free_fall)
   ricochet_python_case(restart_bitwise check_restart.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise)
-  ricochet_python_case(restart_bitwise_exact check_restart.py $<TARGET_FILE:ricochet>
-                       ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise_exact exact)
+  ricochet_python_case(restart_bitwise_newmark check_restart.py $<TARGET_FILE:ricochet>
+                       ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise_newmark newmark)
   ricochet_python_case(free_rotation_deck check_free_rotation.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_free_rotation_deck ${RICOCHET_TEST_DATA}/free_rotation_I123.csv)
 endif()
