@@ -21,6 +21,7 @@
 !> overlap. Bodies far from everything produce no pair and so cost no mesh query.
 module bucket_grid
   use kinds, only: dp, i8
+  use, intrinsic :: iso_fortran_env, only: int8
   use error_status, only: error_t, ERR_INPUT
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
@@ -47,9 +48,10 @@ module bucket_grid
     integer :: n_entries = 0      !< (box, body) entries in the grid
     integer :: cells_used = 0     !< occupied boxes
     integer :: max_per_cell = 0   !< most bodies listed in one box
-    integer :: table_size = 0     !< hash table slots (power of two, >= 2 n_entries)
+    integer :: table_size = 0     !< slots: hash (power of two, >= 2 n_entries) or dense boxes
     integer(i8) :: pairs_tested = 0    !< inflated bounding-box comparisons in the last query
     integer(i8) :: pairs_returned = 0  !< pairs returned by the last query
+    logical :: dense = .false.    !< dense slot array instead of the hash
   end type bucket_stats_t
 
   type :: bucket_grid_t
@@ -65,12 +67,23 @@ module bucket_grid
     real(dp), allocatable :: lower(:, :), upper(:, :)   !< (3,n) world bounding boxes [m]
     logical, allocatable :: is_static(:), in_grid(:)
     integer(i8), allocatable :: lo(:, :), hi(:, :)      !< (3,n) box range of each body
-    ! Hash table: slot s holds box slot_key(:,s) with slot_count(s) > 0 bodies in
+    ! Slot s holds box slot_key(:,s) with slot_count(s) > 0 bodies in
     ! cell_body(slot_start(s) : slot_start(s)+slot_count(s)-1), in increasing body order.
+    ! Hash mode: open addressing, linear probing. Dense mode (the occupied boxes fill their
+    ! bounding box kmin..kmax well, as in a gas or a full container): slot = 1 + the box's
+    ! lexicographic index in that bounding box, no key, and neighbouring boxes are
+    ! neighbouring slots (cache-friendly queries).
     integer :: table_size = 0
+    logical :: dense = .false.
+    integer(i8) :: kmin(3) = 0, kmax(3) = -1, dim1 = 0, dim12 = 0
+    integer, allocatable :: order(:)   !< grid bodies in the order queries visit them
     integer(i8), allocatable :: slot_key(:, :)
     integer, allocatable :: slot_count(:), slot_start(:), slot_fill(:)
     integer, allocatable :: cell_body(:), entry_slot(:)
+    ! Per entry, beside cell_body: bit a-1 set if the entry's box is body's first box along
+    ! axis a, bit 3 if the body is static. Queries read these contiguous bits instead of the
+    ! body arrays at random indices, so most rejected neighbours cost no cache miss.
+    integer(int8), allocatable :: cell_flags(:)
     ! Large bodies: a flat hierarchy over large_ids. Node k is a leaf if node_count(k) > 0
     ! (bodies large_ids(node_first(k) : +node_count(k)-1)), else its children are
     ! node_first(k) and node_first(k)+1.
@@ -175,13 +188,16 @@ contains
     self%built = .false.
     self%n = 0
     self%table_size = 0
+    self%dense = .false.
     self%n_large = 0
     self%n_large_dynamic = 0
     self%n_nodes = 0
     if (allocated(self%lower)) deallocate (self%lower, self%upper, self%is_static, self%in_grid, self%lo, self%hi)
-    if (allocated(self%slot_key)) deallocate (self%slot_key, self%slot_count, self%slot_start, self%slot_fill)
-    if (allocated(self%cell_body)) deallocate (self%cell_body, self%entry_slot)
+    if (allocated(self%slot_key)) deallocate (self%slot_key)
+    if (allocated(self%slot_count)) deallocate (self%slot_count, self%slot_start, self%slot_fill)
+    if (allocated(self%cell_body)) deallocate (self%cell_body, self%entry_slot, self%cell_flags)
     if (allocated(self%large_ids)) deallocate (self%large_ids)
+    if (allocated(self%order)) deallocate (self%order)
     if (allocated(self%node_lower)) deallocate (self%node_lower, self%node_upper, self%node_first, self%node_count)
     if (allocated(self%pair_buf)) deallocate (self%pair_buf)
     if (allocated(self%pair_tmp)) deallocate (self%pair_tmp)
@@ -227,11 +243,25 @@ contains
     s = int(iand(k, mask)) + 1
   end function hash_slot
 
+  !> Dense mode: slot of box c inside kmin..kmax.
+  pure integer function dense_slot(self, c) result(s)
+    class(bucket_grid_t), intent(in) :: self
+    integer(i8), intent(in) :: c(3)
+    s = int((c(1) - self%kmin(1)) + self%dim1*(c(2) - self%kmin(2)) + self%dim12*(c(3) - self%kmin(3))) + 1
+  end function dense_slot
+
   !> Slot holding box c, or 0 if no body is listed in it.
   pure integer function find_slot(self, c) result(s)
     class(bucket_grid_t), intent(in) :: self
     integer(i8), intent(in) :: c(3)
     integer(i8) :: mask
+    if (self%dense) then
+      s = 0
+      if (any(c < self%kmin .or. c > self%kmax)) return
+      s = dense_slot(self, c)
+      if (self%slot_count(s) == 0) s = 0
+      return
+    end if
     mask = int(self%table_size - 1, i8)
     s = hash_slot(c, mask)
     do
@@ -252,7 +282,8 @@ contains
     real(dp), intent(in) :: lower(:, :), upper(:, :)
     logical, intent(in) :: is_static(:)
     type(error_t), intent(inout) :: err
-    integer :: i, s, e, n_entries, n_grid, nl, tsize, cells, maxc
+    integer :: i, s, e, k, n_entries, n_grid, nl, tsize, cells, maxc
+    integer(int8) :: flags
     integer(i8) :: c(3), mask, span(3), k1, k2, k3
     real(dp) :: ql(3), qu(3)
     character(len=64) :: buf
@@ -311,11 +342,30 @@ contains
       end if
     end do
 
-    ! Hash table of at least 2 n_entries slots (load <= 1/2: short probe chains).
-    tsize = 16
-    do while (tsize < 2*n_entries)
-      tsize = 2*tsize
+    ! Bounding box of the occupied boxes. Dense slots if it holds no more boxes than the hash
+    ! table would have slots (so dense never costs more memory); else a hash table of at least
+    ! 2 n_entries slots (load <= 1/2: short probe chains).
+    self%kmin = huge(1_i8)
+    self%kmax = -huge(1_i8)
+    do i = 1, n
+      if (.not. self%in_grid(i)) cycle
+      self%kmin = min(self%kmin, self%lo(:, i))
+      self%kmax = max(self%kmax, self%hi(:, i))
     end do
+    self%dense = .false.
+    if (n_grid > 0) then
+      self%dense = product(real(self%kmax - self%kmin + 1, dp)) <= real(2*n_entries + 64, dp)
+    end if
+    if (self%dense) then
+      self%dim1 = self%kmax(1) - self%kmin(1) + 1
+      self%dim12 = self%dim1*(self%kmax(2) - self%kmin(2) + 1)
+      tsize = int(self%dim12*(self%kmax(3) - self%kmin(3) + 1))
+    else
+      tsize = 16
+      do while (tsize < 2*n_entries)
+        tsize = 2*tsize
+      end do
+    end if
     call ensure_table(self, tsize, n_entries)
     self%table_size = tsize
     mask = int(tsize - 1, i8)
@@ -328,15 +378,19 @@ contains
         do k2 = self%lo(2, i), self%hi(2, i)
           do k1 = self%lo(1, i), self%hi(1, i)
             c = [k1, k2, k3]
-            s = hash_slot(c, mask)
-            do
-              if (self%slot_count(s) == 0) then
-                self%slot_key(:, s) = c
-                exit
-              end if
-              if (all(self%slot_key(:, s) == c)) exit
-              s = int(iand(int(s, i8), mask)) + 1
-            end do
+            if (self%dense) then
+              s = dense_slot(self, c)
+            else
+              s = hash_slot(c, mask)
+              do
+                if (self%slot_count(s) == 0) then
+                  self%slot_key(:, s) = c
+                  exit
+                end if
+                if (all(self%slot_key(:, s) == c)) exit
+                s = int(iand(int(s, i8), mask)) + 1
+              end do
+            end if
             self%slot_count(s) = self%slot_count(s) + 1
             e = e + 1
             self%entry_slot(e) = s
@@ -358,13 +412,47 @@ contains
     e = 0
     do i = 1, n
       if (.not. self%in_grid(i)) cycle
-      span = self%hi(:, i) - self%lo(:, i) + 1
-      do s = e + 1, e + int(span(1)*span(2)*span(3))
-        self%cell_body(self%slot_fill(self%entry_slot(s))) = i
-        self%slot_fill(self%entry_slot(s)) = self%slot_fill(self%entry_slot(s)) + 1
+      do k3 = self%lo(3, i), self%hi(3, i)
+        do k2 = self%lo(2, i), self%hi(2, i)
+          do k1 = self%lo(1, i), self%hi(1, i)
+            e = e + 1
+            s = self%entry_slot(e)
+            k = self%slot_fill(s)
+            self%slot_fill(s) = k + 1
+            self%cell_body(k) = i
+            flags = 0
+            if (k1 == self%lo(1, i)) flags = ibset(flags, 0)
+            if (k2 == self%lo(2, i)) flags = ibset(flags, 1)
+            if (k3 == self%lo(3, i)) flags = ibset(flags, 2)
+            if (self%is_static(i)) flags = ibset(flags, 3)
+            self%cell_flags(k) = flags
+          end do
+        end do
       end do
-      e = e + int(span(1)*span(2)*span(3))
     end do
+    ! Query order: dense mode visits bodies by their first box, so consecutive searches touch
+    ! the same slots and bodies (cache); hash mode visits them by index.
+    if (allocated(self%order)) then
+      if (size(self%order) < n_grid) deallocate (self%order)
+    end if
+    if (.not. allocated(self%order)) allocate (self%order(max(1, n_grid)))
+    e = 0
+    if (self%dense) then
+      do s = 1, tsize
+        do k = self%slot_start(s), self%slot_start(s) + self%slot_count(s) - 1
+          i = self%cell_body(k)
+          if (dense_slot(self, self%lo(:, i)) /= s) cycle
+          e = e + 1
+          self%order(e) = i
+        end do
+      end do
+    else
+      do i = 1, n
+        if (.not. self%in_grid(i)) cycle
+        e = e + 1
+        self%order(e) = i
+      end do
+    end if
 
     call build_hierarchy(self, nl)
 
@@ -376,6 +464,7 @@ contains
     self%last%cells_used = cells
     self%last%max_per_cell = maxc
     self%last%table_size = tsize
+    self%last%dense = self%dense
     self%built = .true.
   end subroutine grid_build
 
@@ -394,17 +483,26 @@ contains
     type(bucket_grid_t), intent(inout) :: self
     integer, intent(in) :: tsize, n_entries
     logical :: grow
-    grow = .not. allocated(self%slot_key)
+    grow = .not. allocated(self%slot_count)
     if (.not. grow) grow = size(self%slot_count) < tsize
     if (grow) then
-      if (allocated(self%slot_key)) deallocate (self%slot_key, self%slot_count, self%slot_start, self%slot_fill)
-      allocate (self%slot_key(3, tsize), self%slot_count(tsize), self%slot_start(tsize), self%slot_fill(tsize))
+      if (allocated(self%slot_count)) deallocate (self%slot_count, self%slot_start, self%slot_fill)
+      allocate (self%slot_count(tsize), self%slot_start(tsize), self%slot_fill(tsize))
+    end if
+    if (.not. self%dense) then   ! keys only in hash mode
+      grow = .not. allocated(self%slot_key)
+      if (.not. grow) grow = size(self%slot_key, 2) < tsize
+      if (grow) then
+        if (allocated(self%slot_key)) deallocate (self%slot_key)
+        allocate (self%slot_key(3, tsize))
+      end if
     end if
     grow = .not. allocated(self%cell_body)
     if (.not. grow) grow = size(self%cell_body) < n_entries
     if (grow) then
-      if (allocated(self%cell_body)) deallocate (self%cell_body, self%entry_slot)
-      allocate (self%cell_body(max(1, n_entries)), self%entry_slot(max(1, n_entries)))
+      if (allocated(self%cell_body)) deallocate (self%cell_body, self%entry_slot, self%cell_flags)
+      allocate (self%cell_body(max(1, n_entries)), self%entry_slot(max(1, n_entries)), &
+                self%cell_flags(max(1, n_entries)))
     end if
   end subroutine ensure_table
 
@@ -541,7 +639,8 @@ contains
     integer :: i, j, e, s, np, n, k, top, l, stack(STACK_SIZE)
     integer(i8) :: c(3), slo(3), shi(3), k1, k2, k3, tested
     real(dp) :: m1, m2, mi, mj, m_grid, m_large, d, ql(3), qu(3), il(3), iu(3)
-    logical :: uniform
+    logical :: uniform, static_i
+    integer(int8) :: flags
     character(len=96) :: buf
 
     n_pairs = 0
@@ -594,72 +693,88 @@ contains
     np = 0
     tested = 0
     if (.not. allocated(self%pair_buf)) allocate (self%pair_buf(2, max(16, 4*n)))
-    do i = 1, n
+    ! Grid pairs, visiting the grid bodies in the build's order.
+    do k = 1, self%last%n_grid
+      i = self%order(k)
+      static_i = self%is_static(i)
       mi = margin_of(i)
       il = self%lower(:, i) - mi
       iu = self%upper(:, i) + mi
-      if (self%in_grid(i)) then
-        ! Grid neighbours: boxes of the box inflated by m_i + max m_j (widened by a few ulps
-        ! so rounding in floor() never drops a pair brute force keeps), capped at the rings.
-        d = mi + m_grid
-        ql = (self%lower(:, i) - d) - 4.0_dp*spacing(abs(self%lower(:, i)) + d)
-        qu = (self%upper(:, i) + d) + 4.0_dp*spacing(abs(self%upper(:, i)) + d)
-        slo = max(floor((ql - self%origin)*self%inv_h, kind=i8), self%lo(:, i) - rings)
-        shi = min(floor((qu - self%origin)*self%inv_h, kind=i8), self%hi(:, i) + rings)
-        do k3 = slo(3), shi(3)
-          do k2 = slo(2), shi(2)
-            do k1 = slo(1), shi(1)
-              c = [k1, k2, k3]
-              s = find_slot(self, c)
-              if (s == 0) cycle
-              do e = self%slot_start(s), self%slot_start(s) + self%slot_count(s) - 1
-                j = self%cell_body(e)
-                if (j <= i) cycle
-                if (self%is_static(i) .and. self%is_static(j)) cycle
-                ! Report j only in the first box (lowest corner) of its range inside i's
-                ! search range: each pair is tested once, without a visited set.
-                if (max(self%lo(1, j), slo(1)) /= k1 .or. max(self%lo(2, j), slo(2)) /= k2 .or. &
-                    max(self%lo(3, j), slo(3)) /= k3) cycle
-                tested = tested + 1
-                mj = margin_of(j)
-                if (boxes_overlap(il, iu, self%lower(:, j) - mj, self%upper(:, j) + mj)) call push(i, j)
-              end do
+      ! Boxes of the box inflated by m_i + max m_j (widened by a few ulps so rounding in
+      ! floor() never drops a pair brute force keeps), capped at the rings and clipped to the
+      ! occupied boxes.
+      d = mi + m_grid
+      ql = (self%lower(:, i) - d) - 4.0_dp*spacing(abs(self%lower(:, i)) + d)
+      qu = (self%upper(:, i) + d) + 4.0_dp*spacing(abs(self%upper(:, i)) + d)
+      slo = max(floor((ql - self%origin)*self%inv_h, kind=i8), self%lo(:, i) - rings)
+      shi = min(floor((qu - self%origin)*self%inv_h, kind=i8), self%hi(:, i) + rings)
+      slo = max(slo, self%kmin)
+      shi = min(shi, self%kmax)
+      do k3 = slo(3), shi(3)
+        do k2 = slo(2), shi(2)
+          do k1 = slo(1), shi(1)
+            c = [k1, k2, k3]
+            s = find_slot(self, c)
+            if (s == 0) cycle
+            do e = self%slot_start(s), self%slot_start(s) + self%slot_count(s) - 1
+              j = self%cell_body(e)
+              if (j <= i) cycle
+              flags = self%cell_flags(e)
+              if (static_i .and. btest(flags, 3)) cycle
+              ! Report j only in the first box (lowest corner) of its range inside i's
+              ! search range, max(lo_j, slo): each pair is tested once, without a visited
+              ! set. Per axis that box is the window's first layer or j's own first layer.
+              if (.not. ((k1 == slo(1) .or. btest(flags, 0)) .and. (k2 == slo(2) .or. btest(flags, 1)) .and. &
+                         (k3 == slo(3) .or. btest(flags, 2)))) cycle
+              tested = tested + 1
+              mj = margin_of(j)
+              if (il(1) <= self%upper(1, j) + mj .and. self%lower(1, j) - mj <= iu(1) .and. &
+                  il(2) <= self%upper(2, j) + mj .and. self%lower(2, j) - mj <= iu(2) .and. &
+                  il(3) <= self%upper(3, j) + mj .and. self%lower(3, j) - mj <= iu(3)) call push(i, j)
             end do
           end do
         end do
-      end if
-      ! Large bodies: grid bodies query the hierarchy (static ones only if some large body
-      ! moves); large dynamic bodies query it for other large bodies.
-      if (self%n_large == 0) cycle
-      if (self%is_static(i) .and. self%n_large_dynamic == 0) cycle
-      if (.not. self%in_grid(i) .and. self%is_static(i)) cycle
-      ql = il - m_large
-      qu = iu + m_large
-      top = 1
-      stack(1) = 1
-      do while (top > 0)
-        k = stack(top)
-        top = top - 1
-        if (.not. boxes_overlap(ql, qu, self%node_lower(:, k), self%node_upper(:, k))) cycle
-        if (self%node_count(k) == 0) then
-          stack(top + 1) = self%node_first(k)
-          stack(top + 2) = self%node_first(k) + 1
-          top = top + 2
-          cycle
-        end if
-        do l = self%node_first(k), self%node_first(k) + self%node_count(k) - 1
-          j = self%large_ids(l)
-          if (j == i) cycle
-          if (self%is_static(i) .and. self%is_static(j)) cycle
-          ! large-large pairs are found from both sides: keep the one from the smaller index
-          ! (a static large body never queries, so its partner always reports it).
-          if (.not. self%in_grid(i) .and. .not. self%is_static(j) .and. j < i) cycle
-          tested = tested + 1
-          mj = margin_of(j)
-          if (boxes_overlap(il, iu, self%lower(:, j) - mj, self%upper(:, j) + mj)) call push(min(i, j), max(i, j))
-        end do
       end do
     end do
+    ! Large bodies: grid bodies query the hierarchy (static ones only if some large body
+    ! moves); large dynamic bodies query it for other large bodies.
+    if (self%n_large > 0) then
+      do i = 1, n
+        if (self%is_static(i) .and. (self%n_large_dynamic == 0 .or. .not. self%in_grid(i))) cycle
+        mi = margin_of(i)
+        il = self%lower(:, i) - mi
+        iu = self%upper(:, i) + mi
+        ql = il - m_large
+        qu = iu + m_large
+        top = 1
+        stack(1) = 1
+        do while (top > 0)
+          k = stack(top)
+          top = top - 1
+          if (.not. boxes_overlap(ql, qu, self%node_lower(:, k), self%node_upper(:, k))) cycle
+          if (self%node_count(k) == 0) then
+            stack(top + 1) = self%node_first(k)
+            stack(top + 2) = self%node_first(k) + 1
+            top = top + 2
+            cycle
+          end if
+          do l = self%node_first(k), self%node_first(k) + self%node_count(k) - 1
+            j = self%large_ids(l)
+            if (j == i) cycle
+            if (self%is_static(i) .and. self%is_static(j)) cycle
+            ! large-large pairs are found from both sides: keep the one from the smaller
+            ! index (a static large body never queries, so its partner always reports it).
+            if (.not. self%in_grid(i) .and. .not. self%is_static(j) .and. j < i) cycle
+            tested = tested + 1
+            mj = margin_of(j)
+            if (il(1) <= self%upper(1, j) + mj .and. self%lower(1, j) - mj <= iu(1) .and. &
+                il(2) <= self%upper(2, j) + mj .and. self%lower(2, j) - mj <= iu(2) .and. &
+                il(3) <= self%upper(3, j) + mj .and. self%lower(3, j) - mj <= iu(3)) &
+              call push(min(i, j), max(i, j))
+          end do
+        end do
+      end do
+    end if
 
     call sort_pairs(self, np, n)
     if (allocated(pairs)) then

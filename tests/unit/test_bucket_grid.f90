@@ -123,6 +123,7 @@ contains
     call compare_with_brute('gas, 1 ring, margin h/2', n, lower, upper, is_static, 1, margin, pairs, np)
     st = grid%stats()
     call check(st%n_grid == n .and. st%n_large == 0, 'gas: every body in the grid')
+    call check(.not. st%dense, 'gas: dilute scene (3 % of the volume) uses the hash table')
     ! with h = smallest extent and edges <= 2h, each body touches <= 3 boxes per axis
     call check(st%n_entries <= 27*n .and. st%cells_used <= st%n_entries, 'gas: bounded entries per body')
     call check(st%table_size >= 2*st%n_entries, 'gas: hash load <= 1/2')
@@ -195,6 +196,7 @@ contains
     call compare_with_brute('clusters, 1 ring', n, lower, upper, is_static, 1, margin, pairs, np)
     st = grid%stats()
     call check(st%max_per_cell > 10, 'clusters: crowded boxes (the scene tests many bodies per box)')
+    call check(.not. st%dense, 'clusters: sparse scene uses the hash table')
     margin = h*rnd
     call compare_with_brute('clusters, 2 rings', n, lower, upper, is_static, 2, margin, pairs, np)
   end subroutine check_clusters
@@ -225,6 +227,7 @@ contains
     call compare_with_brute('mixed sizes, 1 ring', n, lower, upper, is_static, 1, margin, pairs, np)
     st = grid%stats()
     call check(st%n_large > 50 .and. st%n_grid > 50, 'mixed sizes: both the grid and the hierarchy are used')
+    call check(.not. st%dense, 'mixed sizes: sparse scene uses the hash table')
     ! large bodies may carry any margin: they have no ring limit
     where (e > 4.0_dp*h) margin = 0.3_dp
     call compare_with_brute('mixed sizes, large margins on large bodies', n, lower, upper, is_static, 2, &
@@ -292,15 +295,19 @@ contains
     logical :: is_static(n)
     integer, allocatable :: pairs(:, :), pairs_near(:, :)
     integer :: np, np_near
+    type(bucket_stats_t) :: st
     real(dp), parameter :: shift(3) = [-1.0e6_dp, -3.7e5_dp, 1.0e6_dp]
     integer :: i
-    call random_cubes(n, [0.0_dp, 0.0_dp, 0.0_dp], 0.25_dp, 0.01_dp, 0.02_dp, lower, upper)
+    ! packed densely (bodies overlap: ~1.2 of the volume) so the dense slots are used
+    call random_cubes(n, [0.0_dp, 0.0_dp, 0.0_dp], 0.08_dp, 0.01_dp, 0.02_dp, lower, upper)
     is_static = .false.
     call choose_box_size(maxval(upper - lower, dim=1), 1.0_dp, h, err)
     call grid%init(h, err)
     call random_number(rnd)
     margin = h*rnd
     call compare_with_brute('near origin, 2 rings', n, lower, upper, is_static, 2, margin, pairs_near, np_near)
+    st = grid%stats()
+    call check(st%dense, 'dense scene uses dense slots')
     do i = 1, n
       lower(:, i) = lower(:, i) + shift
       upper(:, i) = upper(:, i) + shift
@@ -312,6 +319,8 @@ contains
     call grid%init(h, err, origin=[-3.0_dp, 2.0_dp, 1.0e5_dp])
     call check(err%ok(), 'far: init with origin')
     call compare_with_brute('far, shifted origin', n, lower, upper, is_static, 2, margin, pairs, np)
+    st = grid%stats()
+    call check(st%dense, 'far scene uses dense slots too')
     call check(all(grid%box_of_point([-3.0_dp, 2.0_dp, 1.0e5_dp]) == 0_i8), 'origin is the corner of box (0,0,0)')
   end subroutine check_far_from_origin
 
