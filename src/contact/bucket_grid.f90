@@ -68,7 +68,7 @@ module bucket_grid
     logical, allocatable :: is_static(:), in_grid(:)
     integer(i8), allocatable :: lo(:, :), hi(:, :)      !< (3,n) box range of each body
     ! Slot s holds box slot_key(:,s) with slot_count(s) > 0 bodies in
-    ! cell_body(slot_start(s) : slot_start(s)+slot_count(s)-1), in increasing body order.
+    ! cell_body(slot_start(s) : slot_start(s)+slot_count(s)-1), given by rank in `order`.
     ! Hash mode: open addressing, linear probing. Dense mode (the occupied boxes fill their
     ! bounding box kmin..kmax well, as in a gas or a full container): slot = 1 + the box's
     ! lexicographic index in that bounding box, no key, and neighbouring boxes are
@@ -76,7 +76,12 @@ module bucket_grid
     integer :: table_size = 0
     logical :: dense = .false.
     integer(i8) :: kmin(3) = 0, kmax(3) = -1, dim1 = 0, dim12 = 0
-    integer, allocatable :: order(:)   !< grid bodies in the order queries visit them
+    integer, allocatable :: order(:)   !< grid bodies in the order queries visit them (rank -> body)
+    ! Copies of the grid bodies' boxes by rank: in dense mode ranks follow space, so a query's
+    ! neighbours are close in memory whatever the caller's body order (no random access).
+    real(dp), allocatable :: r_lower(:, :), r_upper(:, :), r_margin(:)
+    integer(i8), allocatable :: r_lo(:, :), r_hi(:, :)
+    logical, allocatable :: r_static(:)
     integer(i8), allocatable :: slot_key(:, :)
     integer, allocatable :: slot_count(:), slot_start(:), slot_fill(:)
     integer, allocatable :: cell_body(:), entry_slot(:)
@@ -197,7 +202,8 @@ contains
     if (allocated(self%slot_count)) deallocate (self%slot_count, self%slot_start, self%slot_fill)
     if (allocated(self%cell_body)) deallocate (self%cell_body, self%entry_slot, self%cell_flags)
     if (allocated(self%large_ids)) deallocate (self%large_ids)
-    if (allocated(self%order)) deallocate (self%order)
+    if (allocated(self%order)) deallocate (self%order, self%r_lower, self%r_upper, self%r_margin, &
+                                          self%r_lo, self%r_hi, self%r_static)
     if (allocated(self%node_lower)) deallocate (self%node_lower, self%node_upper, self%node_first, self%node_count)
     if (allocated(self%pair_buf)) deallocate (self%pair_buf)
     if (allocated(self%pair_tmp)) deallocate (self%pair_tmp)
@@ -430,29 +436,34 @@ contains
         end do
       end do
     end do
-    ! Query order: dense mode visits bodies by their first box, so consecutive searches touch
-    ! the same slots and bodies (cache); hash mode visits them by index.
+    ! Query order: bodies by their first box's slot (the entry whose flags mark the first
+    ! box along all three axes). Dense mode: slots follow space, so consecutive searches
+    ! touch the same slots and boxes (cache); hash mode: bodies sharing a box are adjacent.
     if (allocated(self%order)) then
-      if (size(self%order) < n_grid) deallocate (self%order)
+      if (size(self%order) < n_grid) deallocate (self%order, self%r_lower, self%r_upper, self%r_margin, &
+                                                 self%r_lo, self%r_hi, self%r_static)
     end if
-    if (.not. allocated(self%order)) allocate (self%order(max(1, n_grid)))
+    if (.not. allocated(self%order)) then
+      k = max(1, n_grid)
+      allocate (self%order(k), self%r_lower(3, k), self%r_upper(3, k), self%r_margin(k), &
+                self%r_lo(3, k), self%r_hi(3, k), self%r_static(k))
+    end if
     e = 0
-    if (self%dense) then
-      do s = 1, tsize
-        do k = self%slot_start(s), self%slot_start(s) + self%slot_count(s) - 1
-          i = self%cell_body(k)
-          if (dense_slot(self, self%lo(:, i)) /= s) cycle
-          e = e + 1
-          self%order(e) = i
-        end do
-      end do
-    else
-      do i = 1, n
-        if (.not. self%in_grid(i)) cycle
-        e = e + 1
-        self%order(e) = i
-      end do
-    end if
+    do k = 1, n_entries
+      if (iand(self%cell_flags(k), 7_int8) /= 7_int8) cycle
+      e = e + 1
+      self%order(e) = self%cell_body(k)
+    end do
+    ! Boxes by rank, and the grid lists ranks instead of body indices.
+    do k = 1, n_grid
+      i = self%order(k)
+      self%r_lower(:, k) = self%lower(:, i)
+      self%r_upper(:, k) = self%upper(:, i)
+      self%r_lo(:, k) = self%lo(:, i)
+      self%r_hi(:, k) = self%hi(:, i)
+      self%r_static(k) = self%is_static(i)
+    end do
+    call rank_entries(self, n, n_grid, n_entries)
 
     call build_hierarchy(self, nl)
 
@@ -467,6 +478,21 @@ contains
     self%last%dense = self%dense
     self%built = .true.
   end subroutine grid_build
+
+  !> cell_body: body index -> rank in order (a scratch rank array of n, allocated once per build).
+  subroutine rank_entries(self, n, n_grid, n_entries)
+    type(bucket_grid_t), intent(inout) :: self
+    integer, intent(in) :: n, n_grid, n_entries
+    integer, allocatable :: rank(:)
+    integer :: k
+    allocate (rank(max(1, n)))
+    do k = 1, n_grid
+      rank(self%order(k)) = k
+    end do
+    do k = 1, n_entries
+      self%cell_body(k) = rank(self%cell_body(k))
+    end do
+  end subroutine rank_entries
 
   subroutine ensure_body_arrays(self, n)
     type(bucket_grid_t), intent(inout) :: self
@@ -629,14 +655,17 @@ contains
   !> for the step (<= h); intersection and contact checks: rings = 1, margins <= h/2.
   !> Pairs with a large body (static or not) come from the hierarchy and have no ring limit.
   !> pairs is grown when too small, never shrunk, so a caller's buffer is reused.
-  subroutine grid_candidate_pairs(self, rings, margin, pairs, n_pairs, err)
+  !> n_owned (MPI): bodies 1..n_owned are owned, the rest ghosts; pairs of two ghosts are
+  !> dropped (their owner reports them). Default: all bodies owned.
+  subroutine grid_candidate_pairs(self, rings, margin, pairs, n_pairs, err, n_owned)
     class(bucket_grid_t), intent(inout) :: self
     integer, intent(in) :: rings
     real(dp), intent(in) :: margin(:)
     integer, allocatable, intent(inout) :: pairs(:, :)
     integer, intent(out) :: n_pairs
     type(error_t), intent(inout) :: err
-    integer :: i, j, e, s, np, n, k, top, l, stack(STACK_SIZE)
+    integer, intent(in), optional :: n_owned
+    integer :: i, j, e, s, np, n, k, r, top, l, stack(STACK_SIZE), owned
     integer(i8) :: c(3), slo(3), shi(3), k1, k2, k3, tested
     real(dp) :: m1, m2, mi, mj, m_grid, m_large, d, ql(3), qu(3), il(3), iu(3)
     logical :: uniform, static_i
@@ -689,25 +718,30 @@ contains
       return
     end if
     m_grid = m1
+    owned = n
+    if (present(n_owned)) owned = max(0, min(n, n_owned))
 
     np = 0
     tested = 0
     if (.not. allocated(self%pair_buf)) allocate (self%pair_buf(2, max(16, 4*n)))
-    ! Grid pairs, visiting the grid bodies in the build's order.
+    ! Grid pairs, visiting the grid bodies by rank; each pair is found from its lower rank.
+    do k = 1, self%last%n_grid
+      self%r_margin(k) = margin_of(self%order(k))
+    end do
     do k = 1, self%last%n_grid
       i = self%order(k)
-      static_i = self%is_static(i)
-      mi = margin_of(i)
-      il = self%lower(:, i) - mi
-      iu = self%upper(:, i) + mi
+      static_i = self%r_static(k)
+      mi = self%r_margin(k)
+      il = self%r_lower(:, k) - mi
+      iu = self%r_upper(:, k) + mi
       ! Boxes of the box inflated by m_i + max m_j (widened by a few ulps so rounding in
       ! floor() never drops a pair brute force keeps), capped at the rings and clipped to the
       ! occupied boxes.
       d = mi + m_grid
-      ql = (self%lower(:, i) - d) - 4.0_dp*spacing(abs(self%lower(:, i)) + d)
-      qu = (self%upper(:, i) + d) + 4.0_dp*spacing(abs(self%upper(:, i)) + d)
-      slo = max(floor((ql - self%origin)*self%inv_h, kind=i8), self%lo(:, i) - rings)
-      shi = min(floor((qu - self%origin)*self%inv_h, kind=i8), self%hi(:, i) + rings)
+      ql = (self%r_lower(:, k) - d) - 4.0_dp*spacing(abs(self%r_lower(:, k)) + d)
+      qu = (self%r_upper(:, k) + d) + 4.0_dp*spacing(abs(self%r_upper(:, k)) + d)
+      slo = max(floor((ql - self%origin)*self%inv_h, kind=i8), self%r_lo(:, k) - rings)
+      shi = min(floor((qu - self%origin)*self%inv_h, kind=i8), self%r_hi(:, k) + rings)
       slo = max(slo, self%kmin)
       shi = min(shi, self%kmax)
       do k3 = slo(3), shi(3)
@@ -717,8 +751,8 @@ contains
             s = find_slot(self, c)
             if (s == 0) cycle
             do e = self%slot_start(s), self%slot_start(s) + self%slot_count(s) - 1
-              j = self%cell_body(e)
-              if (j <= i) cycle
+              r = self%cell_body(e)
+              if (r <= k) cycle
               flags = self%cell_flags(e)
               if (static_i .and. btest(flags, 3)) cycle
               ! Report j only in the first box (lowest corner) of its range inside i's
@@ -727,10 +761,13 @@ contains
               if (.not. ((k1 == slo(1) .or. btest(flags, 0)) .and. (k2 == slo(2) .or. btest(flags, 1)) .and. &
                          (k3 == slo(3) .or. btest(flags, 2)))) cycle
               tested = tested + 1
-              mj = margin_of(j)
-              if (il(1) <= self%upper(1, j) + mj .and. self%lower(1, j) - mj <= iu(1) .and. &
-                  il(2) <= self%upper(2, j) + mj .and. self%lower(2, j) - mj <= iu(2) .and. &
-                  il(3) <= self%upper(3, j) + mj .and. self%lower(3, j) - mj <= iu(3)) call push(i, j)
+              mj = self%r_margin(r)
+              if (il(1) <= self%r_upper(1, r) + mj .and. self%r_lower(1, r) - mj <= iu(1) .and. &
+                  il(2) <= self%r_upper(2, r) + mj .and. self%r_lower(2, r) - mj <= iu(2) .and. &
+                  il(3) <= self%r_upper(3, r) + mj .and. self%r_lower(3, r) - mj <= iu(3)) then
+                j = self%order(r)
+                call push(min(i, j), max(i, j))
+              end if
             end do
           end do
         end do
@@ -800,6 +837,7 @@ contains
     subroutine push(a, b)
       integer, intent(in) :: a, b
       integer, allocatable :: grown(:, :)
+      if (a > owned) return   ! a < b: both are ghosts
       if (np == size(self%pair_buf, 2)) then
         allocate (grown(2, 2*np))
         grown(:, 1:np) = self%pair_buf(:, 1:np)

@@ -158,6 +158,13 @@ contains
     end do
     call check(subset, 'gas: touching pairs are a subset of the two-ring candidates')
 
+    ! owned and ghost bodies: with the last half ghosts, ghost-ghost pairs are dropped
+    call grid%candidate_pairs(2, [h], pairs_b, np_b, err, n_owned=n/2)
+    call check(np_b == count(pairs(1, 1:np) <= n/2) .and. np_b < np, 'gas: ghost-ghost pairs dropped, count')
+    if (np_b == count(pairs(1, 1:np) <= n/2)) &
+      call check(all(pairs_b(:, 1:np_b) == reshape(pack(pairs(:, 1:np), spread(pairs(1, 1:np) <= n/2, 1, 2)), &
+                                                   [2, np_b])), 'gas: ghost-ghost pairs dropped, the rest kept')
+
     ! determinism: a second query and a rebuild give identical output
     call grid%candidate_pairs(2, [h], pairs_b, np_b, err)
     call check(np_b == np, 'gas: repeated query, same count')
@@ -325,7 +332,7 @@ contains
   end subroutine check_far_from_origin
 
   subroutine check_errors()
-    real(dp) :: h, lower(3, 2), upper(3, 2)
+    real(dp) :: h, lower(3, 3), upper(3, 3)
     integer, allocatable :: pairs(:, :)
     integer :: np
     type(bucket_grid_t) :: g
@@ -357,8 +364,14 @@ contains
     call err%clear()
     lower = 0.0_dp
     upper = 0.5_dp
-    call g%build(2, lower, upper, [.false., .false.], err)
+    ! a third body far from everything: no pair, so no mesh query for it
+    lower(:, 3) = [50.0_dp, -20.0_dp, 3.0_dp]
+    upper(:, 3) = lower(:, 3) + 0.5_dp
+    call g%build(3, lower, upper, [.false., .false., .false.], err)
     call check(err%ok(), 'small scene builds')
+    call g%candidate_pairs(2, [0.5_dp], pairs, np, err)
+    call check(err%ok() .and. np == 1, 'isolated body: one pair in the scene')
+    if (np == 1) call check(all(pairs(:, 1) == [1, 2]), 'isolated body: the far body has no pair')
     call g%candidate_pairs(1, [0.6_dp], pairs, np, err)
     call check_error(err%code, err%message, [character(len=16) :: 'margins sum', 'rings*box size'], 'margins beyond one ring rejected')
     call err%clear()
@@ -367,7 +380,7 @@ contains
     call g%candidate_pairs(1, [real(dp) ::], pairs, np, err)
     call check_error(err%code, err%message, ['size(margin) = 0'], 'margin of wrong size rejected')
     call err%clear()
-    call g%candidate_pairs(1, [0.1_dp, -0.1_dp], pairs, np, err)
+    call g%candidate_pairs(1, [0.1_dp, -0.1_dp, 0.0_dp], pairs, np, err)
     call check_error(err%code, err%message, ['margin of body 2'], 'negative margin named')
     call err%clear()
   end subroutine check_errors
