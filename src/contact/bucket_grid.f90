@@ -4,21 +4,24 @@
 !>
 !> Boxes are indexed globally: box (i,j,k) = floor((x - origin)/h) per axis, as 64-bit
 !> integers, from one origin and one h shared by all ranks, so a subdomain is a range of boxes.
-!> The domain is unbounded: occupied boxes live in an open-addressing hash table sized at
-!> least twice the number of (box, body) entries, and the entries are counting-sorted by table
-!> slot into one flat array (no per-box allocatable lists). Build is O(n), a query O(n + pairs).
+!> Each grid body is listed in every box its bounding box touches; the (box, body) entries are
+!> counting-sorted by slot into one flat array (no per-box allocatable lists). Slots: an
+!> open-addressing hash table of >= 2 slots per entry (the domain is unbounded), or, when the
+!> occupied boxes fill their bounding box, a dense array of those boxes (neighbours adjacent in
+!> memory). Build is O(n), a query O(n + pairs).
 !>
 !> Bodies whose bounding box spans more than max_span boxes along some axis (floors, walls,
 !> containers, or dynamic bodies much larger than the smallest) are not put in the grid, so
 !> they neither shrink the boxes nor flood thousands of them: they go into a flat bounding
 !> volume hierarchy (arrays, median split) that each grid body queries with its inflated box.
-!> A container of 10,000 small bodies then costs 10,000 grid bodies plus ~log(walls) box tests
-!> each. Small static bodies (pegs, obstacles) stay in the grid; static-static pairs are never
-!> reported.
+!> A container of 10,000 small bodies then costs 10,000 grid bodies plus a few box tests each
+!> against the walls. Small static bodies (pegs, obstacles) stay in the grid; static-static
+!> pairs are never reported.
 !>
 !> Candidate pairs: unordered (i<j), unique, sorted by (i, j), of bodies whose boxes lie within
 !> `rings` boxes of each other and whose bounding boxes, each inflated by its own margin,
 !> overlap. Bodies far from everything produce no pair and so cost no mesh query.
+!> Design, rules for callers and measurements: docs/broad_phase.md.
 module bucket_grid
   use kinds, only: dp, i8
   use, intrinsic :: iso_fortran_env, only: int8
