@@ -1,5 +1,5 @@
 !> Benchmark of the broad phase (not a test): build and query times of bucket_grid for a
-!> uniform gas of n cubes (edge 0.01 m, volume fraction ~0.2) for n = 10^3 .. 10^6, and a
+!> uniform gas of n cubes (edge 0.01 m, volume fraction 0.2 and 0.005) for n = 10^3 .. 10^6, and a
 !> walled container against the same bodies without walls. Run by tools/bench_bucket_grid.sh.
 program bench_bucket_grid
   use kinds, only: dp, i8
@@ -8,8 +8,9 @@ program bench_bucket_grid
   implicit none
   integer, parameter :: n_sizes = 7
   integer, parameter :: sizes(n_sizes) = [1000, 3000, 10000, 30000, 100000, 300000, 1000000]
-  real(dp), parameter :: edge = 0.01_dp, phi = 0.2_dp
-  integer :: k, nmax
+  real(dp), parameter :: edge = 0.01_dp
+  real(dp) :: phi
+  integer :: k, nmax, pass
   integer :: seed_size
   integer, allocatable :: seed(:)
   real(dp) :: t(n_sizes, 3), slope(3)
@@ -20,20 +21,24 @@ program bench_bucket_grid
   call random_seed(put=seed)
   nmax = sizes(n_sizes)
   if (command_argument_count() > 0) nmax = 100000   ! quick mode
-  write (*, '(a)') '# uniform gas, edge 0.01 m, volume fraction 0.2, h = edge (scale 1)'
-  write (*, '(a)') '#        n   build[s]  query1[s]  query2[s]  pairs1     pairs2     tested2   cells   max/cell'
-  do k = 1, n_sizes
-    if (sizes(k) > nmax) then
-      t(k, :) = -1.0_dp
-      cycle
-    end if
-    call run_gas(sizes(k), t(k, :))
+  do pass = 1, 2
+    ! dense gas (dense slots), then dilute gas (hash table)
+    phi = merge(0.2_dp, 0.005_dp, pass == 1)
+    write (*, '(a,f6.3,a)') '# uniform gas, edge 0.01 m, volume fraction', phi, ', h = edge (scale 1)'
+    write (*, '(a)') '#        n   build[s]  query1[s]  query2[s]  pairs1     pairs2     tested2   cells   max/cell dense'
+    do k = 1, n_sizes
+      if (sizes(k) > nmax) then
+        t(k, :) = -1.0_dp
+        cycle
+      end if
+      call run_gas(sizes(k), phi, t(k, :))
+    end do
+    ! growth exponent: least-squares slope of log t against log n over the sizes run
+    do k = 1, 3
+      slope(k) = fit_slope(pack(log(real(sizes, dp)), t(:, k) > 0.0_dp), pack(log(max(t(:, k), 1.0e-30_dp)), t(:, k) > 0.0_dp))
+    end do
+    write (*, '(a,3f7.3)') '# growth exponent (build, query 1 ring, query 2 rings): ', slope
   end do
-  ! growth exponent: least-squares slope of log t against log n over the sizes run
-  do k = 1, 3
-    slope(k) = fit_slope(pack(log(real(sizes, dp)), t(:, k) > 0.0_dp), pack(log(max(t(:, k), 1.0e-30_dp)), t(:, k) > 0.0_dp))
-  end do
-  write (*, '(a,3f7.3)') '# growth exponent (build, query 1 ring, query 2 rings): ', slope
   call run_container(10000)
   call run_container(100000)
 
@@ -51,8 +56,9 @@ contains
     end do
   end subroutine gas
 
-  subroutine run_gas(n, times)
+  subroutine run_gas(n, phi, times)
     integer, intent(in) :: n
+    real(dp), intent(in) :: phi
     real(dp), intent(out) :: times(3)
     real(dp), allocatable :: lower(:, :), upper(:, :), ext(:)
     logical, allocatable :: is_static(:)
@@ -91,10 +97,10 @@ contains
     times(3) = real(c1 - c0, dp)/rate/nrep
     st = grid%stats()
     if (err%failed()) write (*, '(a)') 'error: '//err%message
-    write (*, '(i10,3es11.3,3i10,2i9)') n, times, np1, np2, st%pairs_tested, st%cells_used, st%max_per_cell
+    write (*, '(i10,3es11.3,3i10,2i9,l3)') n, times, np1, np2, st%pairs_tested, st%cells_used, st%max_per_cell, st%dense
   end subroutine run_gas
 
-  !> n bodies in a unit-volume-fraction container of 5 walls, against the same bodies alone.
+  !> n bodies at volume fraction 0.2 in a container of 5 walls, against the same bodies alone.
   subroutine run_container(n)
     integer, intent(in) :: n
     real(dp), allocatable :: lower(:, :), upper(:, :), ext(:)
@@ -107,7 +113,7 @@ contains
     integer :: np, rep, nrep, case, m, i
     integer(i8) :: c0, c1, rate
     allocate (lower(3, n + 5), upper(3, n + 5), ext(n), is_static(n + 5))
-    side = (n*edge**3/phi)**(1.0_dp/3.0_dp)
+    side = (n*edge**3/0.2_dp)**(1.0_dp/3.0_dp)   ! volume fraction 0.2
     tw = 0.1_dp*side
     lower(:, 1) = [-tw, -tw, -tw]; upper(:, 1) = [side + tw, side + tw, 0.0_dp]
     lower(:, 2) = [-tw, -tw, 0.0_dp]; upper(:, 2) = [0.0_dp, side + tw, side]

@@ -238,18 +238,21 @@ contains
     s = self%last
   end function grid_stats
 
-  !> First probe slot (1-based) of box c in a table of mask+1 slots. Only the low 21 bits of
-  !> each coordinate enter the hash (no integer overflow: the sum stays below 2^50, the
-  !> product below 2^62); boxes 2^21 apart collide in the hash but keys are compared whole.
+  !> First probe slot (1-based) of box c in a table of mask+1 slots. Boxes of one row (same
+  !> j, k; consecutive i) get consecutive slots, so a query's window row is one or two cache
+  !> lines whether its boxes are occupied or not; rows are scattered by a mix of (j, k). Only
+  !> the low 21 bits of j and k enter the mix (no integer overflow: the sum stays below 2^50,
+  !> the product below 2^62); boxes whose rows alias collide in the hash but keys are compared
+  !> whole.
   pure integer function hash_slot(c, mask) result(s)
     integer(i8), intent(in) :: c(3)
     integer(i8), intent(in) :: mask
     integer(i8) :: k
-    k = iand(c(1), LOW21)*73856093_i8 + iand(c(2), LOW21)*19349663_i8 + iand(c(3), LOW21)*83492791_i8
+    k = iand(c(2), LOW21)*73856093_i8 + iand(c(3), LOW21)*83492791_i8
     k = ieor(k, ishft(k, -23))
     k = iand(k, LOW31)*1597334677_i8
     k = ieor(k, ishft(k, -29))
-    s = int(iand(k, mask)) + 1
+    s = int(iand(iand(k, mask) + iand(c(1), mask), mask)) + 1
   end function hash_slot
 
   !> Dense mode: slot of box c inside kmin..kmax.
