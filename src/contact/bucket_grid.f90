@@ -294,7 +294,7 @@ contains
     real(dp), intent(in) :: lower(:, :), upper(:, :)
     logical, intent(in) :: is_static(:)
     type(error_t), intent(inout) :: err
-    integer :: i, s, e, k, n_entries, n_grid, nl, tsize, cells, maxc
+    integer :: i, s, e, k, r, n_entries, n_grid, nl, tsize, cells, maxc
     integer(int8) :: flags
     integer(i8) :: c(3), mask, span(3), k1, k2, k3
     real(dp) :: ql(3), qu(3)
@@ -380,15 +380,42 @@ contains
     end if
     call ensure_table(self, tsize, n_entries)
     self%table_size = tsize
+    ! Grid bodies in space order (by first box): inserting and querying in this order touches
+    ! the slots and the copied boxes of one neighbourhood after another (cache), whatever the
+    ! caller's body order. The rank of a body is its position in `order`.
+    if (allocated(self%order)) then
+      if (size(self%order) < n_grid) deallocate (self%order, self%r_lower, self%r_upper, self%r_margin, &
+                                                 self%r_lo, self%r_hi, self%r_static)
+    end if
+    if (.not. allocated(self%order)) then
+      k = max(1, n_grid)
+      allocate (self%order(k), self%r_lower(3, k), self%r_upper(3, k), self%r_margin(k), &
+                self%r_lo(3, k), self%r_hi(3, k), self%r_static(k))
+    end if
+    e = 0
+    do i = 1, n
+      if (.not. self%in_grid(i)) cycle
+      e = e + 1
+      self%order(e) = i
+    end do
+    call sort_order_spatially(self, n_grid)
+    ! Copies of the boxes by rank (the one gather in caller order); the passes below read them.
+    do k = 1, n_grid
+      i = self%order(k)
+      self%r_lower(:, k) = self%lower(:, i)
+      self%r_upper(:, k) = self%upper(:, i)
+      self%r_lo(:, k) = self%lo(:, i)
+      self%r_hi(:, k) = self%hi(:, i)
+      self%r_static(k) = self%is_static(i)
+    end do
     mask = int(tsize - 1, i8)
     self%slot_count(1:tsize) = 0
     ! Pass 1: find or claim each entry's slot, count bodies per slot.
     e = 0
-    do i = 1, n
-      if (.not. self%in_grid(i)) cycle
-      do k3 = self%lo(3, i), self%hi(3, i)
-        do k2 = self%lo(2, i), self%hi(2, i)
-          do k1 = self%lo(1, i), self%hi(1, i)
+    do r = 1, n_grid
+      do k3 = self%r_lo(3, r), self%r_hi(3, r)
+        do k2 = self%r_lo(2, r), self%r_hi(2, r)
+          do k1 = self%r_lo(1, r), self%r_hi(1, r)
             c = [k1, k2, k3]
             if (self%dense) then
               s = dense_slot(self, c)
@@ -422,54 +449,25 @@ contains
       maxc = max(maxc, self%slot_count(s))
     end do
     e = 0
-    do i = 1, n
-      if (.not. self%in_grid(i)) cycle
-      do k3 = self%lo(3, i), self%hi(3, i)
-        do k2 = self%lo(2, i), self%hi(2, i)
-          do k1 = self%lo(1, i), self%hi(1, i)
+    do r = 1, n_grid
+      do k3 = self%r_lo(3, r), self%r_hi(3, r)
+        do k2 = self%r_lo(2, r), self%r_hi(2, r)
+          do k1 = self%r_lo(1, r), self%r_hi(1, r)
             e = e + 1
             s = self%entry_slot(e)
             k = self%slot_fill(s)
             self%slot_fill(s) = k + 1
-            self%cell_body(k) = i
+            self%cell_body(k) = r
             flags = 0
-            if (k1 == self%lo(1, i)) flags = ibset(flags, 0)
-            if (k2 == self%lo(2, i)) flags = ibset(flags, 1)
-            if (k3 == self%lo(3, i)) flags = ibset(flags, 2)
-            if (self%is_static(i)) flags = ibset(flags, 3)
+            if (k1 == self%r_lo(1, r)) flags = ibset(flags, 0)
+            if (k2 == self%r_lo(2, r)) flags = ibset(flags, 1)
+            if (k3 == self%r_lo(3, r)) flags = ibset(flags, 2)
+            if (self%r_static(r)) flags = ibset(flags, 3)
             self%cell_flags(k) = flags
           end do
         end do
       end do
     end do
-    ! Query order: bodies by their first box's slot (the entry whose flags mark the first
-    ! box along all three axes). Dense mode: slots follow space, so consecutive searches
-    ! touch the same slots and boxes (cache); hash mode: bodies sharing a box are adjacent.
-    if (allocated(self%order)) then
-      if (size(self%order) < n_grid) deallocate (self%order, self%r_lower, self%r_upper, self%r_margin, &
-                                                 self%r_lo, self%r_hi, self%r_static)
-    end if
-    if (.not. allocated(self%order)) then
-      k = max(1, n_grid)
-      allocate (self%order(k), self%r_lower(3, k), self%r_upper(3, k), self%r_margin(k), &
-                self%r_lo(3, k), self%r_hi(3, k), self%r_static(k))
-    end if
-    e = 0
-    do k = 1, n_entries
-      if (iand(self%cell_flags(k), 7_int8) /= 7_int8) cycle
-      e = e + 1
-      self%order(e) = self%cell_body(k)
-    end do
-    ! Boxes by rank, and the grid lists ranks instead of body indices.
-    do k = 1, n_grid
-      i = self%order(k)
-      self%r_lower(:, k) = self%lower(:, i)
-      self%r_upper(:, k) = self%upper(:, i)
-      self%r_lo(:, k) = self%lo(:, i)
-      self%r_hi(:, k) = self%hi(:, i)
-      self%r_static(k) = self%is_static(i)
-    end do
-    call rank_entries(self, n, n_grid, n_entries)
 
     call build_hierarchy(self, nl)
 
@@ -485,20 +483,39 @@ contains
     self%built = .true.
   end subroutine grid_build
 
-  !> cell_body: body index -> rank in order (a scratch rank array of n, allocated once per build).
-  subroutine rank_entries(self, n, n_grid, n_entries)
+  !> Orders the grid bodies by first box, lexicographic (k, j, i) on the low 10 bits of each
+  !> coordinate relative to kmin: three stable counting-sort passes of 1024 buckets, one per
+  !> axis, O(n). Only speed depends on this order, never the result.
+  subroutine sort_order_spatially(self, ng)
     type(bucket_grid_t), intent(inout) :: self
-    integer, intent(in) :: n, n_grid, n_entries
-    integer, allocatable :: rank(:)
-    integer :: k
-    allocate (rank(max(1, n)))
-    do k = 1, n_grid
-      rank(self%order(k)) = k
+    integer, intent(in) :: ng
+    integer, allocatable :: key(:, :), perm(:), cnt(:)
+    integer :: k, d, axis, acc, t
+    if (ng < 2) return
+    allocate (key(3, ng), perm(ng), cnt(0:1023))
+    do k = 1, ng
+      key(:, k) = int(iand(self%lo(:, self%order(k)) - self%kmin, 1023_i8))
     end do
-    do k = 1, n_entries
-      self%cell_body(k) = rank(self%cell_body(k))
+    do axis = 1, 3
+      cnt = 0
+      do k = 1, ng
+        cnt(key(axis, k)) = cnt(key(axis, k)) + 1
+      end do
+      acc = 1
+      do d = 0, 1023
+        t = cnt(d)
+        cnt(d) = acc
+        acc = acc + t
+      end do
+      do k = 1, ng   ! perm(new position) = old position
+        d = key(axis, k)
+        perm(cnt(d)) = k
+        cnt(d) = cnt(d) + 1
+      end do
+      self%order(1:ng) = self%order(perm)
+      key = key(:, perm)
     end do
-  end subroutine rank_entries
+  end subroutine sort_order_spatially
 
   subroutine ensure_body_arrays(self, n)
     type(bucket_grid_t), intent(inout) :: self
