@@ -437,7 +437,7 @@ contains
         end do
       end do
     end do
-    ! Prefix sum: slot_start; then pass 2 scatters bodies in increasing order (counting sort).
+    ! Prefix sum: slot_start; then pass 2 scatters ranks into their slots (counting sort).
     cells = 0
     maxc = 0
     e = 1
