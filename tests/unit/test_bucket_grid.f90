@@ -241,6 +241,12 @@ contains
                             margin, pairs, np)
     call check(.not. any(is_static(pairs(1, 1:np)) .and. is_static(pairs(2, 1:np))), &
                'mixed sizes: no static-static pair')
+    ! max_span = 1: every body spanning two boxes goes to the hierarchy (large-large pairs)
+    call grid%init(h, err, max_span=1)
+    margin = 0.5_dp*h*rnd
+    call compare_with_brute('mixed sizes, max_span 1', n, lower, upper, is_static, 1, margin, pairs, np)
+    st = grid%stats()
+    call check(st%n_large > n/2, 'mixed sizes, max_span 1: most bodies in the hierarchy')
   end subroutine check_mixed_sizes
 
   !> A 1 m container (floor and four walls, 5 static boxes) holding 10,000 bodies of 0.01 m:
@@ -329,6 +335,20 @@ contains
     st = grid%stats()
     call check(st%dense, 'far scene uses dense slots too')
     call check(all(grid%box_of_point([-3.0_dp, 2.0_dp, 1.0e5_dp]) == 0_i8), 'origin is the corner of box (0,0,0)')
+    ! buffers reused without init: a smaller scene, then the full one again
+    call compare_with_brute('far, rebuilt smaller', n/3, lower(:, 1:n/3), upper(:, 1:n/3), is_static(1:n/3), 2, &
+                            margin(1:n/3), pairs, np)
+    call compare_with_brute('far, rebuilt full', n, lower, upper, is_static, 2, margin, pairs, np)
+    ! half the bodies moved 2^21 boxes along y and z: their boxes hash like the others'
+    ! (only the low 21 bits of j and k are mixed), so only whole-key comparison separates them
+    do i = 1, n, 2
+      lower(2:3, i) = lower(2:3, i) + 2.0_dp**21*h
+      upper(2:3, i) = upper(2:3, i) + 2.0_dp**21*h
+    end do
+    call compare_with_brute('far, aliased hash rows', n, lower, upper, is_static, 2, margin, pairs, np)
+    st = grid%stats()
+    call check(.not. st%dense, 'aliased scene uses the hash table')
+    call check(all(mod(pairs(1, 1:np) - pairs(2, 1:np), 2) == 0), 'aliased: no pair across the two groups')
   end subroutine check_far_from_origin
 
   subroutine check_errors()
