@@ -354,9 +354,9 @@ contains
       end if
     end do
 
-    ! Bounding box of the occupied boxes. Dense slots if it holds no more boxes than the hash
-    ! table would have slots (so dense never costs more memory); else a hash table of at least
-    ! 2 n_entries slots (load <= 1/2: short probe chains).
+    ! Bounding box of the occupied boxes. Dense slots if they take no more memory than the hash
+    ! table would (12 bytes per box against 36 per hash slot, with its 3 x 64-bit key); else a
+    ! hash table of at least 2 n_entries slots (load <= 1/2: short probe chains).
     self%kmin = huge(1_i8)
     self%kmax = -huge(1_i8)
     do i = 1, n
@@ -364,19 +364,18 @@ contains
       self%kmin = min(self%kmin, self%lo(:, i))
       self%kmax = max(self%kmax, self%hi(:, i))
     end do
+    tsize = 16
+    do while (tsize < 2*n_entries)
+      tsize = 2*tsize
+    end do
     self%dense = .false.
     if (n_grid > 0) then
-      self%dense = product(real(self%kmax - self%kmin + 1, dp)) <= real(2*n_entries + 64, dp)
+      self%dense = product(real(self%kmax - self%kmin + 1, dp)) <= 3.0_dp*real(tsize, dp)
     end if
     if (self%dense) then
       self%dim1 = self%kmax(1) - self%kmin(1) + 1
       self%dim12 = self%dim1*(self%kmax(2) - self%kmin(2) + 1)
       tsize = int(self%dim12*(self%kmax(3) - self%kmin(3) + 1))
-    else
-      tsize = 16
-      do while (tsize < 2*n_entries)
-        tsize = 2*tsize
-      end do
     end if
     call ensure_table(self, tsize, n_entries)
     self%table_size = tsize
