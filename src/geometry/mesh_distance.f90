@@ -9,12 +9,13 @@
 !> as stored and only the B leaves actually reached are transformed. Results are returned
 !> in the world frame. Poses: world = x + R(q) p.
 !>
-!> Pruning bound between box a (A frame) and box b (B frame): box b lies inside the
-!> axis-aligned box, in A's frame, centred at R_rel c_b + t_rel with half extents
-!> |R_rel| h_b (|.| taken entry-wise); the gap between box a and that enclosing box is a
-!> lower bound on the distance between anything in box a and anything in box b. The same
-!> holds with the roles swapped (box a enclosed in B's frame); the larger of the two bounds
-!> is used. A pair is skipped when its bound is not below the best distance so far.
+!> Pruning bound between oriented box a (A frame) and oriented box b (B frame): seen in a's
+!> own frame, box b lies inside the axis-aligned box with b's centre and half extents
+!> |M| h_b, where M holds b's axes in a's frame (|.| taken entry-wise); the gap between box
+!> a and that enclosing box is a lower bound on the distance between anything in box a and
+!> anything in box b. The same holds with the roles swapped (a enclosed in b's frame); the
+!> larger of the two bounds is used. A pair is skipped when its bound is not below the best
+!> distance so far.
 module mesh_distance
   use kinds, only: dp, i8
   use vector_ops, only: cross
@@ -83,34 +84,54 @@ contains
     rel%slack = 1.0e-13_dp*(tree_a_radius + tree_b_radius + norm2(rel%t))
   end function make_relative_pose
 
-  !> Lower bound on the squared distance between box a (A frame) and box b (B frame).
+  !> Lower bound on the squared distance between oriented box a (A frame) and oriented box
+  !> b (B frame). In a's own frame, b is enclosed by the axis-aligned box with b's centre and
+  !> half extents |M| h_b (M: b's axes seen in a's frame); the gap between that box and a is
+  !> a lower bound. The same in b's frame; the larger bound is returned.
   pure real(dp) function box_gap2(a, b, rel)
-    real(dp), intent(in) :: a(6), b(6)
+    real(dp), intent(in) :: a(15), b(15)
     type(relative_pose_t), intent(in) :: rel
-    real(dp) :: c(3), g(3), s1, s2
-    integer :: i
-    ! b enclosed in A's frame
+    real(dp) :: c(3), v(3, 3), d(3), m(3, 3), am(3, 3), g(3), s1, s2
+    integer :: i, j
+    ! b's centre and axes in A's body frame
     do i = 1, 3
-      c(i) = rel%r(i, 1)*b(1) + rel%r(i, 2)*b(2) + rel%r(i, 3)*b(3) + rel%t(i)
-      g(i) = abs(a(i) - c(i)) - a(3 + i) - rel%slack - &
-             (rel%abs_r(i, 1)*b(4) + rel%abs_r(i, 2)*b(5) + rel%abs_r(i, 3)*b(6))
+      c(i) = rel%r(i, 1)*b(1) + rel%r(i, 2)*b(2) + rel%r(i, 3)*b(3) + rel%t(i) - a(i)
+    end do
+    do j = 1, 3
+      do i = 1, 3
+        v(i, j) = rel%r(i, 1)*b(3 + 3*j + 1) + rel%r(i, 2)*b(3 + 3*j + 2) + rel%r(i, 3)*b(3 + 3*j + 3)
+      end do
+    end do
+    ! in a's box frame: d = U_a^T c, m = U_a^T v
+    do i = 1, 3
+      d(i) = a(3 + 3*i + 1)*c(1) + a(3 + 3*i + 2)*c(2) + a(3 + 3*i + 3)*c(3)
+      do j = 1, 3
+        m(i, j) = a(3 + 3*i + 1)*v(1, j) + a(3 + 3*i + 2)*v(2, j) + a(3 + 3*i + 3)*v(3, j)
+      end do
+    end do
+    am = abs(m)
+    do i = 1, 3
+      g(i) = abs(d(i)) - a(3 + i) - rel%slack - (am(i, 1)*b(4) + am(i, 2)*b(5) + am(i, 3)*b(6))
     end do
     s1 = max(g(1), 0.0_dp)**2 + max(g(2), 0.0_dp)**2 + max(g(3), 0.0_dp)**2
-    ! a enclosed in B's frame: c = R^T (c_a - t)
-    do i = 1, 3
-      c(i) = rel%r(1, i)*(a(1) - rel%t(1)) + rel%r(2, i)*(a(2) - rel%t(2)) + rel%r(3, i)*(a(3) - rel%t(3))
-      g(i) = abs(b(i) - c(i)) - b(3 + i) - rel%slack - &
-             (rel%abs_r(1, i)*a(4) + rel%abs_r(2, i)*a(5) + rel%abs_r(3, i)*a(6))
+    ! in b's box frame the centre offset is -m^T d
+    do j = 1, 3
+      g(j) = abs(m(1, j)*d(1) + m(2, j)*d(2) + m(3, j)*d(3)) - b(3 + j) - rel%slack - &
+             (am(1, j)*a(4) + am(2, j)*a(5) + am(3, j)*a(6))
     end do
     s2 = max(g(1), 0.0_dp)**2 + max(g(2), 0.0_dp)**2 + max(g(3), 0.0_dp)**2
     box_gap2 = max(s1, s2)
   end function box_gap2
 
-  !> Squared distance from point p to box b (same frame).
+  !> Squared distance from point p to oriented box b (same frame).
   pure real(dp) function point_box_gap2(p, b)
-    real(dp), intent(in) :: p(3), b(6)
-    real(dp) :: g(3)
-    g = max(abs(p - b(1:3)) - b(4:6), 0.0_dp)
+    real(dp), intent(in) :: p(3), b(15)
+    real(dp) :: g(3), d(3)
+    integer :: i
+    d = p - b(1:3)
+    do i = 1, 3
+      g(i) = max(abs(b(3 + 3*i + 1)*d(1) + b(3 + 3*i + 2)*d(2) + b(3 + 3*i + 3)*d(3)) - b(3 + i), 0.0_dp)
+    end do
     point_box_gap2 = g(1)*g(1) + g(2)*g(2) + g(3)*g(3)
   end function point_box_gap2
 

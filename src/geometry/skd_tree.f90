@@ -1,11 +1,15 @@
-!> SKD-tree of a triangle mesh: a binary tree of axis-aligned boxes in the body frame. The
+!> SKD-tree of a triangle mesh: a binary tree of bounding boxes in the body frame. The
 !> root bounds all faces; each internal box is split along its longest axis at the median
 !> face centroid, so each child holds half of its parent's faces; leaves hold at most
 !> LEAF_SIZE faces. Built once per shape and shared (read-only) by every body of that shape.
+!> Each box is oriented along the principal axes of its vertices (or axis-aligned when
+!> that is smaller): a patch of a curved surface then gets a thin box, which is what makes
+!> the distance bounds between boxes tight (axis-aligned boxes of oblique patches are as
+!> thick as they are wide, and the pruning suffers accordingly).
 !>
 !> Layout (flat arrays, no pointers): boxes in depth-first order, so the left child of box
-!> k is k + 1 and only the right child index is stored; box(1:3, k) is the centre and
-!> box(4:6, k) the half extents. Faces are stored in leaf order ("slots") with their
+!> k is k + 1 and only the right child index is stored; box(:, k) holds centre, half
+!> extents and axes. Faces are stored in leaf order ("slots") with their
 !> coordinates copied in (tri(:, v, slot)), so a leaf's triangles are contiguous in memory.
 !>
 !> Vertices and edges share the face tree instead of having trees of their own: every
@@ -36,7 +40,9 @@ module skd_tree
     integer :: n_mesh_nodes = 0     !< nodes of the mesh it was built from
     integer :: depth = 0            !< levels (1 for a single leaf)
     real(dp) :: radius = 0.0_dp     !< half diagonal of the root box [m], a length scale
-    real(dp), allocatable :: box(:, :)        !< (6, n_boxes) centre (1:3), half extents (4:6) [m]
+    !> (15, n_boxes) oriented box: centre (1:3) [m], half extents (4:6) [m] along its axes,
+    !> the axes as the columns of a rotation (7:15), all in the body frame
+    real(dp), allocatable :: box(:, :)
     integer, allocatable :: right(:)          !< (n_boxes) right child, 0 for a leaf (left = k + 1)
     integer, allocatable :: first(:)          !< (n_boxes) first slot of the box's faces
     integer, allocatable :: count(:)          !< (n_boxes) number of faces under the box
@@ -96,7 +102,7 @@ contains
     type(error_t), intent(inout) :: err
     integer :: nf, i, k, slot, f, max_boxes
     integer, allocatable :: perm(:)
-    real(dp), allocatable :: centroid(:, :)
+    real(dp), allocatable :: centroid(:, :), key(:)
     character(len=:), allocatable :: name
 
     call self%free()
@@ -131,9 +137,10 @@ contains
       centroid(:, f) = (m%nodes(:, m%faces(1, f)) + m%nodes(:, m%faces(2, f)) + m%nodes(:, m%faces(3, f)))/3.0_dp
     end do
     max_boxes = 2*nf
-    allocate (self%box(6, max_boxes), self%right(max_boxes), self%first(max_boxes), self%count(max_boxes))
+    allocate (self%box(15, max_boxes), self%right(max_boxes), self%first(max_boxes), self%count(max_boxes))
+    allocate (key(nf))
     self%n_boxes = 0
-    call build_box(self, m, perm, centroid, 1, nf, 1)
+    call build_box(self, m, perm, centroid, key, 1, nf, 1)
     self%box = self%box(:, 1:self%n_boxes)
     self%right = self%right(1:self%n_boxes)
     self%first = self%first(1:self%n_boxes)
@@ -153,64 +160,143 @@ contains
     call assign_owners(self)
   end subroutine tree_build
 
-  recursive subroutine build_box(self, m, perm, centroid, lo, hi, level)
+  recursive subroutine build_box(self, m, perm, centroid, key, lo, hi, level)
     type(skd_tree_t), intent(inout) :: self
     type(mesh_t), intent(in) :: m
     integer, intent(inout) :: perm(:)
     real(dp), intent(in) :: centroid(:, :)
+    real(dp), intent(inout) :: key(:)
     integer, intent(in) :: lo, hi, level
-    integer :: k, i, j, axis, mid
-    real(dp) :: lower(3), upper(3), clo(3), chi(3)
+    integer :: k, i, j, mid, longest
+    real(dp) :: lower(3), upper(3), mean(3), cov(3, 3), axes(3, 3), x(3), v(3), plo(3), phi(3), n_pts
     self%n_boxes = self%n_boxes + 1
     k = self%n_boxes
     self%depth = max(self%depth, level)
+    ! Axis-aligned bounds and the principal axes of the node's vertices.
     lower = huge(1.0_dp)
     upper = -huge(1.0_dp)
-    clo = huge(1.0_dp)
-    chi = -huge(1.0_dp)
+    mean = 0.0_dp
     do i = lo, hi
       do j = 1, 3
-        lower = min(lower, m%nodes(:, m%faces(j, perm(i))))
-        upper = max(upper, m%nodes(:, m%faces(j, perm(i))))
+        x = m%nodes(:, m%faces(j, perm(i)))
+        lower = min(lower, x)
+        upper = max(upper, x)
+        mean = mean + x
       end do
-      clo = min(clo, centroid(:, perm(i)))
-      chi = max(chi, centroid(:, perm(i)))
     end do
-    self%box(1:3, k) = 0.5_dp*(lower + upper)
-    self%box(4:6, k) = 0.5_dp*(upper - lower)
+    n_pts = 3.0_dp*(hi - lo + 1)
+    mean = mean/n_pts
+    cov = 0.0_dp
+    do i = lo, hi
+      do j = 1, 3
+        x = m%nodes(:, m%faces(j, perm(i))) - mean
+        cov = cov + spread(x, 2, 3)*spread(x, 1, 3)
+      end do
+    end do
+    call jacobi_eigenvectors(cov/n_pts, axes)
+    plo = huge(1.0_dp)
+    phi = -huge(1.0_dp)
+    do i = lo, hi
+      do j = 1, 3
+        v = matmul(transpose(axes), m%nodes(:, m%faces(j, perm(i))))
+        plo = min(plo, v)
+        phi = max(phi, v)
+      end do
+    end do
+    ! Keep the oriented box unless the axis-aligned one is smaller (volume).
+    if (product(upper - lower) < product(phi - plo)) then
+      axes = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+      plo = lower
+      phi = upper
+    end if
+    self%box(1:3, k) = matmul(axes, 0.5_dp*(plo + phi))
+    self%box(4:6, k) = 0.5_dp*(phi - plo)
+    self%box(7:15, k) = reshape(axes, [9])
     self%first(k) = lo
     self%count(k) = hi - lo + 1
     self%right(k) = 0
     if (hi - lo + 1 <= LEAF_SIZE) return
     ! Longest axis of the box; the median centroid along it splits the faces in halves.
-    axis = maxloc(upper - lower, dim=1)
-    if (chi(axis) - clo(axis) <= 0.0_dp) axis = maxloc(chi - clo, dim=1)
+    longest = maxloc(phi - plo, dim=1)
+    do i = lo, hi
+      key(perm(i)) = dot_product(axes(:, longest), centroid(:, perm(i)))
+    end do
     mid = lo + (hi - lo + 1)/2 - 1
-    call select_kth(perm, centroid, axis, lo, hi, mid)
-    call build_box(self, m, perm, centroid, lo, mid, level + 1)
+    call select_kth(perm, key, lo, hi, mid)
+    call build_box(self, m, perm, centroid, key, lo, mid, level + 1)
     self%right(k) = self%n_boxes + 1
-    call build_box(self, m, perm, centroid, mid + 1, hi, level + 1)
+    call build_box(self, m, perm, centroid, key, mid + 1, hi, level + 1)
   end subroutine build_box
 
-  !> Reorders perm(lo:hi) so perm(kth) has the kth smallest centroid(axis, :) and no larger
-  !> one sits before it (Hoare's quickselect with a middle pivot).
-  subroutine select_kth(perm, centroid, axis, lo_in, hi_in, kth)
+  !> Eigenvectors (columns, right-handed orthonormal) of a symmetric 3x3 matrix by cyclic
+  !> Jacobi rotations; a few sweeps reach rounding level.
+  pure subroutine jacobi_eigenvectors(a_in, v)
+    real(dp), intent(in) :: a_in(3, 3)
+    real(dp), intent(out) :: v(3, 3)
+    real(dp) :: a(3, 3), theta, t, c, s, apq, app, aqq, off, scale
+    real(dp) :: col(3)
+    integer :: sweep, p, q, r
+    a = a_in
+    v = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+    scale = abs(a(1, 1)) + abs(a(2, 2)) + abs(a(3, 3))
+    if (scale <= 0.0_dp) return
+    do sweep = 1, 30
+      off = abs(a(1, 2)) + abs(a(1, 3)) + abs(a(2, 3))
+      if (off <= 1.0e-15_dp*scale) exit
+      do p = 1, 2
+        do q = p + 1, 3
+          apq = a(p, q)
+          if (abs(apq) <= 1.0e-300_dp) cycle
+          app = a(p, p)
+          aqq = a(q, q)
+          theta = (aqq - app)/(2.0_dp*apq)
+          t = sign(1.0_dp, theta)/(abs(theta) + sqrt(theta*theta + 1.0_dp))
+          c = 1.0_dp/sqrt(t*t + 1.0_dp)
+          s = t*c
+          do r = 1, 3
+            col(r) = a(r, p)
+            a(r, p) = c*col(r) - s*a(r, q)
+            a(r, q) = s*col(r) + c*a(r, q)
+          end do
+          do r = 1, 3
+            col(r) = a(p, r)
+            a(p, r) = c*col(r) - s*a(q, r)
+            a(q, r) = s*col(r) + c*a(q, r)
+          end do
+          do r = 1, 3
+            col(r) = v(r, p)
+            v(r, p) = c*col(r) - s*v(r, q)
+            v(r, q) = s*col(r) + c*v(r, q)
+          end do
+        end do
+      end do
+    end do
+    ! re-orthonormalise (Gram-Schmidt) so the box frame is a rotation to rounding
+    v(:, 1) = v(:, 1)/norm2(v(:, 1))
+    v(:, 2) = v(:, 2) - dot_product(v(:, 1), v(:, 2))*v(:, 1)
+    v(:, 2) = v(:, 2)/norm2(v(:, 2))
+    v(:, 3) = cross(v(:, 1), v(:, 2))
+  end subroutine jacobi_eigenvectors
+
+  !> Reorders perm(lo:hi) so perm(kth) has the kth smallest key and no larger one sits
+  !> before it (Hoare's quickselect with a middle pivot).
+  subroutine select_kth(perm, key, lo_in, hi_in, kth)
     integer, intent(inout) :: perm(:)
-    real(dp), intent(in) :: centroid(:, :)
-    integer, intent(in) :: axis, lo_in, hi_in, kth
+    real(dp), intent(in) :: key(:)
+    integer, intent(in) :: lo_in, hi_in, kth
     integer :: lo, hi, i, j, tmp
     real(dp) :: pivot
     lo = lo_in
     hi = hi_in
     do while (lo < hi)
-      pivot = centroid(axis, perm((lo + hi)/2))
+      pivot = key(perm((lo + hi)/2))
       i = lo
       j = hi
       do while (i <= j)
-        do while (centroid(axis, perm(i)) < pivot)
+        do while (key(perm(i)) < pivot)
           i = i + 1
         end do
-        do while (centroid(axis, perm(j)) > pivot)
+        do while (key(perm(j)) > pivot)
           j = j - 1
         end do
         if (i <= j) then

@@ -76,8 +76,8 @@ contains
       do s = tree%first(k), tree%first(k) + tree%count(k) - 1
         do v = 1, 3
           ! centre +- half extents reproduce the bounds to rounding: 1e-15 of the size
-          if (any(abs(tree%tri(:, v, s) - tree%box(1:3, k)) > tree%box(4:6, k) + 1.0e-15_dp*tree%radius)) &
-            ok_box = .false.
+          if (any(abs(matmul(tree%tri(:, v, s) - tree%box(1:3, k), reshape(tree%box(7:15, k), [3, 3]))) > &
+                  tree%box(4:6, k) + 1.0e-15_dp*tree%radius)) ok_box = .false.
         end do
       end do
       if (tree%right(k) == 0) then
