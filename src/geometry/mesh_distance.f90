@@ -91,7 +91,7 @@ contains
   pure real(dp) function box_gap2(a, b, rel)
     real(dp), intent(in) :: a(15), b(15)
     type(relative_pose_t), intent(in) :: rel
-    real(dp) :: c(3), v(3, 3), d(3), m(3, 3), am(3, 3), g(3), s1, s2
+    real(dp) :: c(3), v(3, 3), d(3), m(3, 3), am(3, 3), g(3), s1, s2, s3
     integer :: i, j
     ! b's centre and axes in A's body frame
     do i = 1, 3
@@ -120,7 +120,18 @@ contains
              (am(1, j)*a(4) + am(2, j)*a(5) + am(3, j)*a(6))
     end do
     s2 = max(g(1), 0.0_dp)**2 + max(g(2), 0.0_dp)**2 + max(g(3), 0.0_dp)**2
-    box_gap2 = max(s1, s2)
+    ! along the line of centres L (a's frame: L = d/|d|): the projections of the boxes on L
+    ! are separated by |d| - r_a(L) - r_b(L), r(L) = sum of half extents times |axis . L|;
+    ! tight for far boxes, where the enclosing boxes above are loose
+    s3 = d(1)*d(1) + d(2)*d(2) + d(3)*d(3)
+    if (s3 > 0.0_dp) then
+      s3 = sqrt(s3)
+      g(1) = s3 - (a(4)*abs(d(1)) + a(5)*abs(d(2)) + a(6)*abs(d(3)))/s3 - 2.0_dp*rel%slack - &
+             (b(4)*abs(m(1, 1)*d(1) + m(2, 1)*d(2) + m(3, 1)*d(3)) + b(5)*abs(m(1, 2)*d(1) + m(2, 2)*d(2) + m(3, 2)*d(3)) &
+              + b(6)*abs(m(1, 3)*d(1) + m(2, 3)*d(2) + m(3, 3)*d(3)))/s3
+      s3 = max(g(1), 0.0_dp)**2
+    end if
+    box_gap2 = max(s1, s2, s3)
   end function box_gap2
 
   !> Squared distance from point p to oriented box b (same frame).

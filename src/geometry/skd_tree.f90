@@ -29,7 +29,7 @@ module skd_tree
   private
   public :: skd_tree_t, LEAF_SIZE, owns_vertex, owns_edge, sharp_edge
 
-  integer, parameter :: LEAF_SIZE = 4   !< most faces in a leaf
+  integer, parameter :: LEAF_SIZE = 2   !< most faces in a leaf
   !> Two faces sharing an edge are "flat" (the edge is not a crease: a diagonal of a box face)
   !> when their unit normals agree to this cosine; flat edges give no edge-edge contacts.
   real(dp), parameter :: flat_cosine = 1.0_dp - 1.0e-9_dp

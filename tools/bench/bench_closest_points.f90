@@ -26,7 +26,7 @@ program bench_closest_points
   character(len=64) :: name_a, name_b
   integer :: c, g, p, u_pose, u_time, n_rep, k, seed_size
   integer, allocatable :: seed(:)
-  real(dp) :: xa(3), qa(4), xb(3), qb(4), dir(3), t0, t_fast, t_brute, build_time
+  real(dp) :: xa(3), qa(4), xb(3), qb(4), dir(3), t_fast, t_brute, build_time, sum_time, sum_prim
   integer(i8) :: count0, count1, rate
 
   folder = '.'
@@ -49,6 +49,8 @@ program bench_closest_points
     call write_obj(trim(folder)//'/'//trim(name_a)//'.obj', ma)
     call write_obj(trim(folder)//'/'//trim(name_b)//'.obj', mb)
     do g = 1, n_gaps
+      sum_time = 0.0_dp
+      sum_prim = 0.0_dp
       do p = 1, n_poses
         qa = random_unit_quaternion()
         qb = random_unit_quaternion()
@@ -80,12 +82,14 @@ program bench_closest_points
           if (abs(rb%distance - r%distance) > 1.0e-12_dp*rb%distance + 1.0e-14_dp) &
             write (output_unit, '(a,2es24.16)') 'MISMATCH with brute force: ', r%distance, rb%distance
         end if
+        sum_time = sum_time + t_fast
+        sum_prim = sum_prim + real(stats%primitive_tests, dp)
         write (u_time, '(i0,",",a,",",i0,",",a,",",i0,",",es10.3,",",i0,",",es24.16,",",es12.5,",",es12.5,' &
                //'",",i0,",",i0,",",f10.2)') c, trim(name_a), ma%n_faces, trim(name_b), mb%n_faces, gaps(g), p, &
           r%distance, t_fast, t_brute, stats%box_pairs, stats%primitive_tests, build_time
       end do
-      write (output_unit, '(a,1x,i6,1x,a,1x,i6,a,es9.2,a,f12.2,a)') trim(name_a), ma%n_faces, trim(name_b), mb%n_faces, &
-        '  gap ', gaps(g), '  last ', t_fast, ' us'
+      write (output_unit, '(a,1x,i6,1x,a,1x,i6,a,es9.2,a,f12.2,a,f12.0)') trim(name_a), ma%n_faces, trim(name_b), &
+        mb%n_faces, '  gap ', gaps(g), '  mean ', sum_time/n_poses, ' us  primitive tests ', sum_prim/n_poses
     end do
   end do
   close (u_pose)
