@@ -107,6 +107,7 @@ program test_contact_features
                              1.0e-3_dp, features, n)
   call check(n == 0, 'far apart: no features')
 
+  call random_feature_sets()
   call overlap_cases()
   call test_finish()
 
@@ -133,6 +134,49 @@ contains
     axis = [a(2)*b(3) - a(3)*b(2), a(3)*b(1) - a(1)*b(3), a(1)*b(2) - a(2)*b(1)]
     q = axis_angle_quaternion(axis, acos(dot_product(a, b)))
   end function rotation_between
+
+  !> Random poses of a blob against a torus, tolerance 1.5 x their distance plus 1 mm: every
+  !> feature is within the tolerance and its points are that far apart (1e-12 of the size:
+  !> rounding), and the closest feature is the closest-point distance (1e-12 relative, as
+  !> both come from the same primitive formulas; the minimum of a surface pair is always
+  !> reached at a vertex-face pair or an interior crossing of two creases).
+  subroutine random_feature_sets()
+    type(mesh_t) :: blob
+    type(skd_tree_t) :: t_blob
+    type(distance_result_t) :: r
+    real(dp) :: qa(4), qb(4), xb(3), u, tol, dmin
+    integer :: k, j, n_bad_min, n_bad_feature, n_total, n_apart
+    call blob_fixture(0.4_dp, 2, 0.3_dp, [0.5_dp, 1.5_dp, 2.5_dp], blob)
+    call t_blob%build(blob, err)
+    n_bad_min = 0
+    n_bad_feature = 0
+    n_total = 0
+    n_apart = 0
+    do k = 1, 300
+      qa = random_unit_quaternion()
+      qb = random_unit_quaternion()
+      call random_number(u)
+      xb = (0.9_dp + 1.0_dp*u)*random_unit_vector()
+      ! crossing surfaces have no meaningful distance (see mesh_distance): skip them
+      if (bodies_overlap(t_blob, origin, qa, t_torus, xb, qb)) cycle
+      n_apart = n_apart + 1
+      call mesh_mesh_distance(t_blob, origin, qa, t_torus, xb, qb, r)
+      tol = 1.5_dp*r%distance + 1.0e-3_dp
+      call find_contact_features(t_blob, origin, qa, t_torus, xb, qb, tol, features, n)
+      n_total = n_total + n
+      dmin = huge(1.0_dp)
+      do j = 1, n
+        dmin = min(dmin, features(j)%distance)
+        if (features(j)%distance > tol .or. abs(norm2(features(j)%point_b - features(j)%point_a) - &
+                                                 features(j)%distance) > 1.0e-12_dp) n_bad_feature = n_bad_feature + 1
+        if (abs(norm2(features(j)%normal) - 1.0_dp) > 1.0e-12_dp) n_bad_feature = n_bad_feature + 1
+      end do
+      if (abs(dmin - r%distance) > 1.0e-12_dp*r%distance) n_bad_min = n_bad_min + 1
+    end do
+    call check(n_bad_feature == 0, 'random feature sets: each feature within tolerance, consistent')
+    call check(n_bad_min == 0, 'random feature sets: the closest feature is the distance')
+    call check(n_total > 300 .and. n_apart > 200, 'random feature sets: enough poses and features')
+  end subroutine random_feature_sets
 
   subroutine overlap_cases()
     type(distance_result_t) :: r
