@@ -10,7 +10,8 @@ Markdown table with both times and their ratio, and whether the distances agree.
     .venv/bin/python tools/bench_closest_points.py [--build build-rel] [--work /tmp/bench]
 
 coal is installed with `.venv/bin/pip install coal`. Both are timed in a loop of at least
-0.05 s per pose; coal's times include the Python call overhead (about 1-2 us, measured and
+0.05 s per pose, each side --repeat times (default 3), keeping the fastest run, since the
+machine may be shared; coal's times include the Python call overhead (about 1-2 us, measured and
 printed), which matters only for the smallest meshes.
 """
 import argparse
@@ -71,6 +72,8 @@ def main():
     parser.add_argument('--build', default=os.path.join(ROOT, 'build-rel'))
     parser.add_argument('--work', default='/tmp/ricochet_bench_closest_points')
     parser.add_argument('--skip-run', action='store_true', help='reuse the Fortran results in --work')
+    parser.add_argument('--repeat', type=int, default=3,
+                        help='runs of each side; the fastest is kept (the machine may be shared)')
     args = parser.parse_args()
     import coal
 
@@ -78,12 +81,18 @@ def main():
     exe = os.path.join(args.work, 'bench_closest_points')
     if not args.skip_run:
         build_bench(args.build, exe)
-        subprocess.run([exe, args.work], check=True, stdout=subprocess.DEVNULL)
+        for run in range(args.repeat):
+            subprocess.run([exe, args.work], check=True, stdout=subprocess.DEVNULL)
+            os.replace(os.path.join(args.work, 'ricochet_times.csv'),
+                       os.path.join(args.work, f'ricochet_times_{run}.csv'))
 
     ours = {}
-    with open(os.path.join(args.work, 'ricochet_times.csv')) as f:
-        for row in csv.DictReader(f):
-            ours[(int(row['case']), float(row['gap']), int(row['pose']))] = row
+    for run in range(args.repeat):
+        with open(os.path.join(args.work, f'ricochet_times_{run}.csv')) as f:
+            for row in csv.DictReader(f):
+                key = (int(row['case']), float(row['gap']), int(row['pose']))
+                if key not in ours or float(row['time_us']) < float(ours[key]['time_us']):
+                    ours[key] = row
 
     models = {}
     request = coal.DistanceRequest()
@@ -111,17 +120,19 @@ def main():
             ta = coal.Transform3s(quat_to_matrix(qa), xa)
             tb = coal.Transform3s(quat_to_matrix(qb), xb)
             ma, mb = models[name_a], models[name_b]
-            reps = 0
-            t0 = time.perf_counter()
-            while True:
-                for _ in range(5):
-                    result.clear()
-                    coal.distance(ma, ta, mb, tb, request, result)
-                reps += 5
-                elapsed = time.perf_counter() - t0
-                if elapsed > 0.05:
-                    break
-            t_coal = elapsed / reps * 1e6
+            t_coal = float('inf')
+            for run in range(args.repeat):
+                reps = 0
+                t0 = time.perf_counter()
+                while True:
+                    for _ in range(5):
+                        result.clear()
+                        coal.distance(ma, ta, mb, tb, request, result)
+                    reps += 5
+                    elapsed = time.perf_counter() - t0
+                    if elapsed > 0.05:
+                        break
+                t_coal = min(t_coal, elapsed / reps * 1e6)
             ref = ours[(case, gap, pose)]
             d_ours = float(ref['distance'])
             d_coal = result.min_distance
