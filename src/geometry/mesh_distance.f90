@@ -22,7 +22,7 @@ module mesh_distance
   use quaternion, only: quat_to_matrix
   use mesh, only: mesh_t
   use skd_tree, only: skd_tree_t, LEAF_SIZE, owns_vertex, owns_edge
-  use closest_primitives, only: closest_point_triangle, closest_segment_segment, REGION_FACE
+  use closest_primitives, only: closest_point_triangle, closest_segment_segment
   implicit none
   private
   public :: distance_result_t, query_stats_t, relative_pose_t

@@ -7,7 +7,7 @@ program test_closest_primitives
   use closest_primitives
   use assertions
   implicit none
-  real(dp) :: a(3), b(3), c(3), p(3), q(3), d2, s, t, c1(3), c2(3)
+  real(dp) :: a(3), b(3), c(3), q(3), d2, s, t, c1(3), c2(3)
   integer :: region
 
   a = [0.0_dp, 0.0_dp, 0.0_dp]

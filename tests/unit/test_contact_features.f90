@@ -9,7 +9,7 @@ program test_contact_features
   use skd_tree, only: skd_tree_t
   use mesh_distance
   use contact_features
-  use quaternion, only: quat_identity, quat_mul
+  use quaternion, only: quat_identity
   use mesh_fixtures
   use assertions
   implicit none

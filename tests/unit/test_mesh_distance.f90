@@ -7,7 +7,7 @@ program test_mesh_distance
   use error_status, only: error_t
   use skd_tree, only: skd_tree_t, LEAF_SIZE
   use mesh_distance
-  use quaternion, only: quat_identity, quat_rotate
+  use quaternion, only: quat_identity
   use mesh_fixtures
   use assertions
   implicit none
