@@ -135,7 +135,7 @@ contains
     q = axis_angle_quaternion(axis, acos(dot_product(a, b)))
   end function rotation_between
 
-  !> Random poses of a blob against a torus, tolerance 1.5 x their distance plus 1 mm: every
+  !> Random poses of a blob against a torus, tolerance their distance plus 2 cm: every
   !> feature is within the tolerance and its points are that far apart (1e-12 of the size:
   !> rounding), and the closest feature is the closest-point distance (1e-12 relative, as
   !> both come from the same primitive formulas; the minimum of a surface pair is always
@@ -161,7 +161,7 @@ contains
       if (bodies_overlap(t_blob, origin, qa, t_torus, xb, qb)) cycle
       n_apart = n_apart + 1
       call mesh_mesh_distance(t_blob, origin, qa, t_torus, xb, qb, r)
-      tol = 1.5_dp*r%distance + 1.0e-3_dp
+      tol = r%distance + 0.02_dp
       call find_contact_features(t_blob, origin, qa, t_torus, xb, qb, tol, features, n)
       n_total = n_total + n
       dmin = huge(1.0_dp)
