@@ -66,7 +66,7 @@ contains
     tol2 = tolerance**2
     n_box = 1; n_leaf = 0; n_prim = 0
     top = 0
-    if (box_gap2(tree_a%box(:, 1), tree_b%box(:, 1), rel) <= tol2) call push(1, 1)
+    if (box_gap2(tree_a%box(:, 1), tree_b%box(:, 1), rel, tol2) <= tol2) call push(1, 1)
     do while (top > 0)
       na = stack_a(top)
       nb = stack_b(top)
@@ -77,12 +77,12 @@ contains
       else if (tree_b%right(nb) == 0 .or. (tree_a%right(na) /= 0 .and. &
                                           sum(tree_a%box(4:6, na)) >= sum(tree_b%box(4:6, nb)))) then
         n_box = n_box + 2
-        if (box_gap2(tree_a%box(:, na + 1), tree_b%box(:, nb), rel) <= tol2) call push(na + 1, nb)
-        if (box_gap2(tree_a%box(:, tree_a%right(na)), tree_b%box(:, nb), rel) <= tol2) call push(tree_a%right(na), nb)
+        if (box_gap2(tree_a%box(:, na + 1), tree_b%box(:, nb), rel, tol2) <= tol2) call push(na + 1, nb)
+        if (box_gap2(tree_a%box(:, tree_a%right(na)), tree_b%box(:, nb), rel, tol2) <= tol2) call push(tree_a%right(na), nb)
       else
         n_box = n_box + 2
-        if (box_gap2(tree_a%box(:, na), tree_b%box(:, nb + 1), rel) <= tol2) call push(na, nb + 1)
-        if (box_gap2(tree_a%box(:, na), tree_b%box(:, tree_b%right(nb)), rel) <= tol2) call push(na, tree_b%right(nb))
+        if (box_gap2(tree_a%box(:, na), tree_b%box(:, nb + 1), rel, tol2) <= tol2) call push(na, nb + 1)
+        if (box_gap2(tree_a%box(:, na), tree_b%box(:, tree_b%right(nb)), rel, tol2) <= tol2) call push(na, tree_b%right(nb))
       end if
     end do
 
@@ -242,7 +242,7 @@ contains
     rel = make_relative_pose(tree_a%radius, xa, qa, tree_b%radius, xb, qb)
     n_box = 1; n_leaf = 0; n_prim = 0
     top = 0
-    if (box_gap2(tree_a%box(:, 1), tree_b%box(:, 1), rel) <= 0.0_dp) call push(1, 1)
+    if (box_gap2(tree_a%box(:, 1), tree_b%box(:, 1), rel, 0.0_dp) <= 0.0_dp) call push(1, 1)
     do while (top > 0 .and. .not. overlap)
       na = stack_a(top)
       nb = stack_b(top)
@@ -268,12 +268,12 @@ contains
       else if (tree_b%right(nb) == 0 .or. (tree_a%right(na) /= 0 .and. &
                                           sum(tree_a%box(4:6, na)) >= sum(tree_b%box(4:6, nb)))) then
         n_box = n_box + 2
-        if (box_gap2(tree_a%box(:, na + 1), tree_b%box(:, nb), rel) <= 0.0_dp) call push(na + 1, nb)
-        if (box_gap2(tree_a%box(:, tree_a%right(na)), tree_b%box(:, nb), rel) <= 0.0_dp) call push(tree_a%right(na), nb)
+        if (box_gap2(tree_a%box(:, na + 1), tree_b%box(:, nb), rel, 0.0_dp) <= 0.0_dp) call push(na + 1, nb)
+        if (box_gap2(tree_a%box(:, tree_a%right(na)), tree_b%box(:, nb), rel, 0.0_dp) <= 0.0_dp) call push(tree_a%right(na), nb)
       else
         n_box = n_box + 2
-        if (box_gap2(tree_a%box(:, na), tree_b%box(:, nb + 1), rel) <= 0.0_dp) call push(na, nb + 1)
-        if (box_gap2(tree_a%box(:, na), tree_b%box(:, tree_b%right(nb)), rel) <= 0.0_dp) call push(na, tree_b%right(nb))
+        if (box_gap2(tree_a%box(:, na), tree_b%box(:, nb + 1), rel, 0.0_dp) <= 0.0_dp) call push(na, nb + 1)
+        if (box_gap2(tree_a%box(:, na), tree_b%box(:, tree_b%right(nb)), rel, 0.0_dp) <= 0.0_dp) call push(na, tree_b%right(nb))
       end if
     end do
     if (.not. overlap) then

@@ -85,15 +85,17 @@ contains
   end function make_relative_pose
 
   !> Lower bound on the squared distance between oriented box a (A frame) and oriented box
-  !> b (B frame). In a's own frame, b is enclosed by the axis-aligned box with b's centre and
-  !> half extents |M| h_b (M: b's axes seen in a's frame); the gap between that box and a is
-  !> a lower bound. The same in b's frame; the larger bound is returned.
-  pure real(dp) function box_gap2(a, b, rel)
+  !> b (B frame), the largest of three (see the module header): along the line of centres,
+  !> then b enclosed in a's frame, then a enclosed in b's frame. As soon as one exceeds
+  !> cutoff it is returned (the pair is pruned whatever the others say), which saves the
+  !> rest of the work for most pruned pairs.
+  pure real(dp) function box_gap2(a, b, rel, cutoff)
     real(dp), intent(in) :: a(15), b(15)
     type(relative_pose_t), intent(in) :: rel
-    real(dp) :: c(3), v(3, 3), d(3), m(3, 3), am(3, 3), g(3), s1, s2, s3
+    real(dp), intent(in) :: cutoff
+    real(dp) :: c(3), v(3, 3), d(3), e(3), m(3, 3), am(3, 3), g(3), s1, s2, s3, len
     integer :: i, j
-    ! b's centre and axes in A's body frame
+    ! b's centre (relative to a's) and axes in A's body frame
     do i = 1, 3
       c(i) = rel%r(i, 1)*b(1) + rel%r(i, 2)*b(2) + rel%r(i, 3)*b(3) + rel%t(i) - a(i)
     end do
@@ -102,10 +104,27 @@ contains
         v(i, j) = rel%r(i, 1)*b(3 + 3*j + 1) + rel%r(i, 2)*b(3 + 3*j + 2) + rel%r(i, 3)*b(3 + 3*j + 3)
       end do
     end do
-    ! in a's box frame: d = U_a^T c, m = U_a^T v
+    ! d: offset in a's box frame; e: offset along b's axes
     do i = 1, 3
       d(i) = a(3 + 3*i + 1)*c(1) + a(3 + 3*i + 2)*c(2) + a(3 + 3*i + 3)*c(3)
-      do j = 1, 3
+      e(i) = v(1, i)*c(1) + v(2, i)*c(2) + v(3, i)*c(3)
+    end do
+    ! along the line of centres L = c/|c|: projections separated by |c| - r_a(L) - r_b(L),
+    ! r(L) = sum of half extents times |axis . L|; tight for distant boxes
+    s3 = 0.0_dp
+    len = sqrt(c(1)*c(1) + c(2)*c(2) + c(3)*c(3))
+    if (len > 0.0_dp) then
+      s3 = len - 2.0_dp*rel%slack - (a(4)*abs(d(1)) + a(5)*abs(d(2)) + a(6)*abs(d(3)) + &
+                                     b(4)*abs(e(1)) + b(5)*abs(e(2)) + b(6)*abs(e(3)))/len
+      s3 = max(s3, 0.0_dp)**2
+      if (s3 > cutoff) then
+        box_gap2 = s3
+        return
+      end if
+    end if
+    ! m: b's axes in a's box frame
+    do j = 1, 3
+      do i = 1, 3
         m(i, j) = a(3 + 3*i + 1)*v(1, j) + a(3 + 3*i + 2)*v(2, j) + a(3 + 3*i + 3)*v(3, j)
       end do
     end do
@@ -114,23 +133,11 @@ contains
       g(i) = abs(d(i)) - a(3 + i) - rel%slack - (am(i, 1)*b(4) + am(i, 2)*b(5) + am(i, 3)*b(6))
     end do
     s1 = max(g(1), 0.0_dp)**2 + max(g(2), 0.0_dp)**2 + max(g(3), 0.0_dp)**2
-    ! in b's box frame the centre offset is -m^T d
+    ! in b's box frame the offset is -e
     do j = 1, 3
-      g(j) = abs(m(1, j)*d(1) + m(2, j)*d(2) + m(3, j)*d(3)) - b(3 + j) - rel%slack - &
-             (am(1, j)*a(4) + am(2, j)*a(5) + am(3, j)*a(6))
+      g(j) = abs(e(j)) - b(3 + j) - rel%slack - (am(1, j)*a(4) + am(2, j)*a(5) + am(3, j)*a(6))
     end do
     s2 = max(g(1), 0.0_dp)**2 + max(g(2), 0.0_dp)**2 + max(g(3), 0.0_dp)**2
-    ! along the line of centres L (a's frame: L = d/|d|): the projections of the boxes on L
-    ! are separated by |d| - r_a(L) - r_b(L), r(L) = sum of half extents times |axis . L|;
-    ! tight for far boxes, where the enclosing boxes above are loose
-    s3 = d(1)*d(1) + d(2)*d(2) + d(3)*d(3)
-    if (s3 > 0.0_dp) then
-      s3 = sqrt(s3)
-      g(1) = s3 - (a(4)*abs(d(1)) + a(5)*abs(d(2)) + a(6)*abs(d(3)))/s3 - 2.0_dp*rel%slack - &
-             (b(4)*abs(m(1, 1)*d(1) + m(2, 1)*d(2) + m(3, 1)*d(3)) + b(5)*abs(m(1, 2)*d(1) + m(2, 2)*d(2) + m(3, 2)*d(3)) &
-              + b(6)*abs(m(1, 3)*d(1) + m(2, 3)*d(2) + m(3, 3)*d(3)))/s3
-      s3 = max(g(1), 0.0_dp)**2
-    end if
     box_gap2 = max(s1, s2, s3)
   end function box_gap2
 
@@ -173,7 +180,7 @@ contains
     top = 1
     stack_a(1) = 1
     stack_b(1) = 1
-    stack_g(1) = box_gap2(tree_a%box(:, 1), tree_b%box(:, 1), rel)
+    stack_g(1) = box_gap2(tree_a%box(:, 1), tree_b%box(:, 1), rel, best2)
     do while (top > 0)
       na = stack_a(top)
       nb = stack_b(top)
@@ -196,8 +203,8 @@ contains
       if (split_a) then
         la = na + 1
         ra = tree_a%right(na)
-        g1 = box_gap2(tree_a%box(:, la), tree_b%box(:, nb), rel)
-        g2 = box_gap2(tree_a%box(:, ra), tree_b%box(:, nb), rel)
+        g1 = box_gap2(tree_a%box(:, la), tree_b%box(:, nb), rel, best2)
+        g2 = box_gap2(tree_a%box(:, ra), tree_b%box(:, nb), rel, best2)
         n_box = n_box + 2
         if (g1 <= g2) then
           call push(ra, nb, g2)
@@ -209,8 +216,8 @@ contains
       else
         lb = nb + 1
         rb = tree_b%right(nb)
-        g1 = box_gap2(tree_a%box(:, na), tree_b%box(:, lb), rel)
-        g2 = box_gap2(tree_a%box(:, na), tree_b%box(:, rb), rel)
+        g1 = box_gap2(tree_a%box(:, na), tree_b%box(:, lb), rel, best2)
+        g2 = box_gap2(tree_a%box(:, na), tree_b%box(:, rb), rel, best2)
         n_box = n_box + 2
         if (g1 <= g2) then
           call push(na, rb, g2)
