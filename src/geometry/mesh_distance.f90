@@ -165,7 +165,7 @@ contains
     type(relative_pose_t) :: rel
     integer :: stack_a(STACK_SIZE), stack_b(STACK_SIZE), top, na, nb, la, ra, lb, rb
     real(dp) :: stack_g(STACK_SIZE), best2, g, g1, g2
-    real(dp) :: tb(3, 3, LEAF_SIZE), pa(3), pb(3)
+    real(dp) :: tb(3, 3, LEAF_SIZE), nrm_b(3, LEAF_SIZE), pa(3), pb(3)
     integer :: best_kind, best_sa, best_sb, best_ka, best_kb
     integer(i8) :: n_box, n_leaf, n_prim
     logical :: split_a
@@ -258,7 +258,7 @@ contains
     subroutine leaf_pair(na, nb)
       integer, intent(in) :: na, nb
       integer :: sa, sb, ka, kb, j, fa0, fa1, fb0, fb1, region
-      real(dp) :: q(3), d2, s, t, c1(3), c2(3)
+      real(dp) :: q(3), d2, s, t, c1(3), c2(3), h
       fa0 = tree_a%first(na)
       fa1 = fa0 + tree_a%count(na) - 1
       fb0 = tree_b%first(nb)
@@ -267,6 +267,7 @@ contains
         do j = 1, 3
           tb(:, j, sb - fb0 + 1) = matmul(rel%r, tree_b%tri(:, j, sb)) + rel%t
         end do
+        nrm_b(:, sb - fb0 + 1) = matmul(rel%r, tree_b%normal(:, sb))
       end do
       ! vertices of A against faces of B, edges of A against edges of B
       do sa = fa0, fa1
@@ -274,6 +275,10 @@ contains
           if (owns_vertex(tree_a%flags(sa), ka)) then
             do sb = fb0, fb1
               j = sb - fb0 + 1
+              ! the distance to the face's plane is a lower bound: skip faces it rules out
+              h = nrm_b(1, j)*(tree_a%tri(1, ka, sa) - tb(1, 1, j)) + nrm_b(2, j)*(tree_a%tri(2, ka, sa) - tb(2, 1, j)) + &
+                  nrm_b(3, j)*(tree_a%tri(3, ka, sa) - tb(3, 1, j))
+              if (h*h >= best2) cycle
               call closest_point_triangle(tree_a%tri(:, ka, sa), tb(:, 1, j), tb(:, 2, j), tb(:, 3, j), q, region, d2)
               n_prim = n_prim + 1
               if (d2 < best2) then
@@ -307,6 +312,10 @@ contains
         do kb = 1, 3
           if (.not. owns_vertex(tree_b%flags(sb), kb)) cycle
           do sa = fa0, fa1
+            h = tree_a%normal(1, sa)*(tb(1, kb, j) - tree_a%tri(1, 1, sa)) + &
+                tree_a%normal(2, sa)*(tb(2, kb, j) - tree_a%tri(2, 1, sa)) + &
+                tree_a%normal(3, sa)*(tb(3, kb, j) - tree_a%tri(3, 1, sa))
+            if (h*h >= best2) cycle
             call closest_point_triangle(tb(:, kb, j), tree_a%tri(:, 1, sa), tree_a%tri(:, 2, sa), &
                                         tree_a%tri(:, 3, sa), q, region, d2)
             n_prim = n_prim + 1

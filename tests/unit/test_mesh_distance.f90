@@ -52,6 +52,7 @@ program test_mesh_distance
   end do
   call check(n_poses_total >= 10000, 'at least 10,000 random pose pairs compared')
 
+  call bad_mesh()
   call contrived_cases()
   call sphere_cases()
   call bound_and_pruning()
@@ -158,6 +159,18 @@ contains
     call check_close(fast%distance, ref%distance, 1.0e-13_dp, what//': equals brute force', atol=1.0e-14_dp)
     call check(abs(norm2(fast%normal) - 1.0_dp) < 1.0e-14_dp, what//': unit normal')
   end subroutine expect
+
+  !> A face pointing at a node that does not exist is refused with the mesh and face named.
+  subroutine bad_mesh()
+    type(mesh_t) :: m
+    type(skd_tree_t) :: t
+    type(error_t) :: e
+    call m%init(reshape([0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp], [3, 3]), &
+                reshape([1, 2, 4], [3, 1]), 'broken.obj')
+    call t%build(m, e)
+    call check_error(e%code, e%message, [character(len=16) :: 'broken.obj', 'face 1', 'node 4'], &
+                     'tree build refuses a face with a missing node')
+  end subroutine bad_mesh
 
   subroutine contrived_cases()
     real(dp) :: q45(4), qv(4), qv_down(4), h, pi, gap
