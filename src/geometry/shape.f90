@@ -4,6 +4,7 @@
 module shape
   use kinds, only: dp
   use mesh, only: mesh_t
+  use skd_tree, only: skd_tree_t
   use quaternion, only: quat_identity
   implicit none
   private
@@ -17,6 +18,7 @@ module shape
     character(len=:), allocatable :: label   !< what it was built from, e.g. "box 1 x 2 x 3 m"
     real(dp) :: radius = 0.0_dp              !< analytic sphere radius [m]
     type(mesh_t) :: mesh                     !< mesh shapes: surface in the principal frame [m]
+    type(skd_tree_t) :: tree                 !< mesh shapes: SKD-tree for closest points, built once
     real(dp) :: volume = 0.0_dp              !< [m^3]
     real(dp) :: unit_inertia(3) = 0.0_dp     !< principal moments per unit density [m^5], ascending
     !> Orientation of the principal frame in the shape's own (definition) frame: a point p

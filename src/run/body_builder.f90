@@ -74,6 +74,8 @@ contains
           end select
           if (err%ok() .and. (spec%shape == 'box' .or. spec%shape == 'cylinder')) call build_mesh_topology(m, err)
           if (err%ok() .and. spec%shape /= 'sphere') call make_mesh_shape(m, label, new_shape, err)
+          ! One SKD-tree per shape, shared by every body of that shape.
+          if (err%ok() .and. spec%shape /= 'sphere') call new_shape%tree%build(new_shape%mesh, err)
           if (err%failed()) then
             call err%prefix(where)
             return

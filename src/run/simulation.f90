@@ -12,6 +12,7 @@ module simulation
   use body_state, only: bodies_t
   use body_builder, only: build_shapes, build_bodies, count_bodies, owned_range
   use conservation, only: system_totals_t, compute_totals
+  use overlap_check, only: check_initial_overlaps
   use newmark_integrator, only: free_flight_stats_t
   use free_flight, only: free_flight_t
   use history_writer, only: history_writer_t, history_record_t, history_fresh_start
@@ -93,6 +94,10 @@ contains
     call build_bodies(deck, self%shapes, shape_of_group, deck%run%gravity, first, last, self%bodies, err)
     if (err%failed()) return
     call self%propagator%init(self%bodies%n_owned, deck%integrator)
+    if (len_trim(restart_path) == 0) then
+      call check_overlaps(self, par, shape_of_group, err)
+      if (err%failed()) return
+    end if
 
     if (deck%output%checkpoint_interval > 0.0_dp) then
       self%next_checkpoint = deck%output%checkpoint_interval
@@ -126,6 +131,23 @@ contains
       call self%write_frame(par, err)
     end if
   end subroutine simulation_init
+
+  !> A deck whose bodies overlap at the start is refused. Every rank checks every pair (the
+  !> check runs once, through the bucket grid), so all ranks agree on the error.
+  subroutine check_overlaps(self, par, shape_of_group, err)
+    type(simulation_t), intent(in) :: self
+    type(parallel_t), intent(in) :: par
+    integer, intent(in) :: shape_of_group(:)
+    type(error_t), intent(inout) :: err
+    type(bodies_t) :: everyone
+    if (par%n_ranks == 1) then
+      call check_initial_overlaps(self%deck, self%shapes, self%bodies, err)
+    else
+      call build_bodies(self%deck, self%shapes, shape_of_group, self%deck%run%gravity, 1_i8, self%n_total, &
+                        everyone, err)
+      if (err%ok()) call check_initial_overlaps(self%deck, self%shapes, everyone, err)
+    end if
+  end subroutine check_overlaps
 
   !> Continues from a checkpoint written by a run of the same deck.
   subroutine restart_from(self, par, path, first, last, err)

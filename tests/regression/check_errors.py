@@ -48,6 +48,24 @@ with open(os.path.join(work, "truncated.h5"), "wb") as f:
 expect_error([ok_deck, "--restart", "truncated.h5"], ["truncated.h5"], "truncated checkpoint")
 expect_error([ok_deck, "--restart", "nowhere.h5"], ["nowhere.h5"], "missing checkpoint")
 expect_error([ok_deck, "--restart"], ["--restart needs"], "--restart without a file")
+# Bodies overlapping at the start are refused, naming both (closest-point overlap test).
+expect_error([deck("spheres.nml", good_run + "&body name = 'a', shape = 'sphere', radius = 1.0, mass = 1.0 /\n"
+                   "&body name = 'b', shape = 'sphere', radius = 1.0, mass = 1.0, position = 1.5, 0, 0 /\n")],
+             ["'a' (body 1", "'b' (body 2", "overlap"], "overlapping spheres")
+expect_error([deck("boxes.nml", good_run + "&body name = 'crates', shape = 'box', size = 1, 1, 1, density = 1, "
+                   "copies = 3, 1, 1, spacing = 2, 0, 0 /\n"
+                   "&body name = 'wedge', shape = 'box', size = 0.2, 0.2, 3, density = 1, position = 4.5, 0, 0, "
+                   "orientation = 0.9238795325112867, 0.3826834323650898, 0, 0 /\n")],
+             ["'crates' (body 3", "'wedge' (body 4", "&body #2"], "crossing boxes (third copy of a lattice)")
+expect_error([deck("nested.nml", good_run + "&body name = 'shell', shape = 'mesh', "
+                   f"mesh_file = '{data}/meshes/spot.obj', scale = 4.0, mass = 1.0 /\n"
+                   "&body name = 'pea', shape = 'box', size = 0.01, 0.01, 0.01, mass = 1.0, position = 0, 0, 0 /\n")],
+             ["'shell'", "'pea'", "overlap"], "a box inside a mesh")
+ok_touching = deck("touching.nml", good_run + "&body name = 'a', shape = 'sphere', radius = 1.0, mass = 1.0 /\n"
+                   "&body name = 'b', shape = 'sphere', radius = 1.0, mass = 1.0, position = 2.0, 0, 0 /\n")
+proc = subprocess.run([exe, ok_touching, "--output-dir", "touching_out"], capture_output=True, text=True, cwd=work)
+c.check(proc.returncode == 0, f"touching spheres are a valid start (Newton's cradle): {proc.stderr.strip()}")
+
 # --check prints the effective deck, and that deck is itself valid.
 proc = subprocess.run([exe, "--check", ok_deck], capture_output=True, text=True, cwd=work)
 c.check(proc.returncode == 0 and "&integrator" in proc.stdout and "newmark_beta" in proc.stdout,

@@ -1,0 +1,101 @@
+!> Refuses a deck whose bodies overlap at the start (surfaces crossing, touching, or one
+!> inside the other), naming both bodies. Candidate pairs come from the bucket grid (one
+!> ring, bounding spheres), so the cost grows with the number of bodies, not its square.
+module overlap_check
+  use kinds, only: dp, i8
+  use error_status, only: error_t, ERR_INPUT
+  use string_utils, only: str
+  use input_config, only: deck_t
+  use shape, only: shape_library_t, SHAPE_SPHERE
+  use body_state, only: bodies_t
+  use bucket_grid, only: bucket_grid_t, choose_box_size
+  use mesh_distance, only: distance_result_t, sphere_mesh_distance
+  use contact_features, only: bodies_overlap, winding_number
+  use quaternion, only: quat_rotate_inverse
+  implicit none
+  private
+  public :: check_initial_overlaps
+
+contains
+
+  !> bodies must hold every body of the run (all ranks check the same pairs, so all agree).
+  subroutine check_initial_overlaps(deck, shapes, bodies, err)
+    type(deck_t), intent(in) :: deck
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    type(error_t), intent(inout) :: err
+    type(bucket_grid_t) :: grid
+    real(dp), allocatable :: lower(:, :), upper(:, :), extent(:)
+    integer, allocatable :: pairs(:, :)
+    real(dp) :: box_size, r
+    integer :: n, i, k, n_pairs
+    logical :: any_dynamic
+
+    n = bodies%n_owned
+    if (n < 2) return
+    allocate (lower(3, n), upper(3, n))
+    do i = 1, n
+      r = shapes%shapes(bodies%shape_id(i))%bounding_radius
+      lower(:, i) = bodies%x(:, i) - r
+      upper(:, i) = bodies%x(:, i) + r
+    end do
+    any_dynamic = .not. all(bodies%fixed(1:n))
+    if (any_dynamic) then
+      extent = pack(upper(1, :) - lower(1, :), .not. bodies%fixed(1:n))
+    else
+      extent = upper(1, :) - lower(1, :)
+    end if
+    call choose_box_size(extent, 1.0_dp, box_size, err)
+    if (err%failed()) return
+    call grid%init(box_size, err)
+    if (err%failed()) return
+    call grid%build(n, lower, upper, [(.false., i=1, n)], err)
+    if (err%failed()) return
+    call grid%candidate_pairs(1, [0.0_dp], pairs, n_pairs, err)
+    if (err%failed()) return
+    do k = 1, n_pairs
+      if (bodies%fixed(pairs(1, k)) .and. bodies%fixed(pairs(2, k))) cycle   ! static scenery may touch
+      if (pair_overlaps(shapes, bodies, pairs(1, k), pairs(2, k))) then
+        call err%set(ERR_INPUT, deck%path//': bodies '//describe(deck, bodies, pairs(1, k))//' and '// &
+                     describe(deck, bodies, pairs(2, k))//' overlap at the start (surfaces cross, touch, '// &
+                     'or one is inside the other): move them apart')
+        return
+      end if
+    end do
+    call grid%free()
+  end subroutine check_initial_overlaps
+
+  function describe(deck, bodies, i) result(text)
+    type(deck_t), intent(in) :: deck
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    character(len=:), allocatable :: text
+    text = "'"//trim(deck%bodies(bodies%group_id(i))%name)//"' (body "//str(bodies%gid(i))//', &body #'// &
+           str(bodies%group_id(i))//' at line '//str(deck%bodies(bodies%group_id(i))%line)//')'
+  end function describe
+
+  !> Spheres overlap when their gap is negative (touching spheres are a valid start, e.g. a
+  !> Newton's cradle); mesh pairs when their surfaces meet or one contains the other.
+  logical function pair_overlaps(shapes, bodies, i, j) result(overlap)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i, j
+    type(distance_result_t) :: d
+    associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
+      if (si%kind == SHAPE_SPHERE .and. sj%kind == SHAPE_SPHERE) then
+        overlap = norm2(bodies%x(:, j) - bodies%x(:, i)) < si%radius + sj%radius
+      else if (si%kind == SHAPE_SPHERE) then
+        call sphere_mesh_distance(bodies%x(:, i), si%radius, sj%tree, bodies%x(:, j), bodies%q(:, j), d)
+        overlap = d%distance <= 0.0_dp .or. &
+                  winding_number(sj%tree, quat_rotate_inverse(bodies%q(:, j), bodies%x(:, i) - bodies%x(:, j))) > 0.5_dp
+      else if (sj%kind == SHAPE_SPHERE) then
+        call sphere_mesh_distance(bodies%x(:, j), sj%radius, si%tree, bodies%x(:, i), bodies%q(:, i), d)
+        overlap = d%distance <= 0.0_dp .or. &
+                  winding_number(si%tree, quat_rotate_inverse(bodies%q(:, i), bodies%x(:, j) - bodies%x(:, i))) > 0.5_dp
+      else
+        overlap = bodies_overlap(si%tree, bodies%x(:, i), bodies%q(:, i), sj%tree, bodies%x(:, j), bodies%q(:, j))
+      end if
+    end associate
+  end function pair_overlaps
+
+end module overlap_check
