@@ -12,7 +12,7 @@ module free_flight
   use kinds, only: dp
   use input_config, only: integrator_config_t, ROTATION_EXACT
   use body_state, only: bodies_t
-  use newmark_integrator, only: advance_free_flight, free_flight_stats_t
+  use newmark_integrator, only: advance_free_flight, free_flight_stats_t, newmark_translate, newmark_rotate
   use free_rotation_exact, only: free_rotor_t
   implicit none
   private
@@ -29,6 +29,7 @@ module free_flight
     procedure :: release => flight_release
     procedure :: release_all => flight_release_all
     procedure :: advance => flight_advance
+    procedure :: pose_at => flight_pose_at
   end type free_flight_t
 
 contains
@@ -57,6 +58,56 @@ contains
     if (self%exact) self%anchored = .false.
   end subroutine flight_release_all
 
+  !> Pose (x, q) body i will have after a step of tau from time_now, computed exactly as
+  !> advance would compute it: what time of contact needs, so that the bound it uses holds
+  !> for the motion the bodies really make. The body's state is not changed.
+  subroutine flight_pose_at(self, bodies, i, time_now, tau, gravity, config, x, q)
+    class(free_flight_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: time_now, tau, gravity(3)
+    type(integrator_config_t), intent(in) :: config
+    real(dp), intent(out) :: x(3), q(4)
+    real(dp) :: v(3), a(3), w(3), alpha(3), dt
+    integer :: iterations
+    logical :: converged
+    real(dp), parameter :: no_torque(3) = 0.0_dp
+    if (bodies%fixed(i)) then
+      x = bodies%x(:, i)
+      q = bodies%q(:, i)
+      return
+    end if
+    if (self%exact) then
+      if (.not. self%anchored(i)) call anchor(self, bodies, i, time_now)
+      dt = (time_now + tau) - self%t0(i)
+      x = self%x0(:, i) + self%v0(:, i)*dt + (0.5_dp*dt*dt)*gravity
+      call self%rotors(i)%evaluate(dt, q, w)
+    else
+      x = bodies%x(:, i)
+      v = bodies%v(:, i)
+      a = bodies%a(:, i)
+      call newmark_translate(x, v, a, gravity, tau, config%newmark_beta, config%newmark_gamma)
+      q = bodies%q(:, i)
+      w = bodies%w(:, i)
+      alpha = bodies%alpha(:, i)
+      call newmark_rotate(q, w, alpha, bodies%inertia(:, i), no_torque, tau, config%newmark_beta, &
+                          config%newmark_gamma, config%rotation_tolerance, config%rotation_max_iterations, &
+                          iterations, converged)
+    end if
+  end subroutine flight_pose_at
+
+  subroutine anchor(self, bodies, i, time_now)
+    type(free_flight_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: time_now
+    call self%rotors(i)%init(bodies%inertia(:, i), bodies%q(:, i), bodies%w(:, i))
+    self%t0(i) = time_now
+    self%x0(:, i) = bodies%x(:, i)
+    self%v0(:, i) = bodies%v(:, i)
+    self%anchored(i) = .true.
+  end subroutine anchor
+
   !> Moves every owned body from time_old to time_new = time_old + h.
   subroutine flight_advance(self, bodies, time_old, time_new, h, gravity, config, stats)
     class(free_flight_t), intent(inout) :: self
@@ -74,13 +125,7 @@ contains
     end if
     do i = 1, bodies%n_owned
       if (bodies%fixed(i)) cycle
-      if (.not. self%anchored(i)) then
-        call self%rotors(i)%init(bodies%inertia(:, i), bodies%q(:, i), bodies%w(:, i))
-        self%t0(i) = time_old
-        self%x0(:, i) = bodies%x(:, i)
-        self%v0(:, i) = bodies%v(:, i)
-        self%anchored(i) = .true.
-      end if
+      if (.not. self%anchored(i)) call anchor(self, bodies, i, time_old)
       tau = time_new - self%t0(i)
       bodies%x(:, i) = self%x0(:, i) + self%v0(:, i)*tau + (0.5_dp*tau*tau)*gravity
       bodies%v(:, i) = self%v0(:, i) + tau*gravity

@@ -11,7 +11,7 @@ module mesh_topology
   use string_utils, only: str
   implicit none
   private
-  public :: build_mesh_topology, signed_volume, vertex_fan_count, component_count
+  public :: build_mesh_topology, signed_volume, vertex_fan_count, component_count, is_convex
 
   !> A closed surface whose |volume| is below this times (bounding-box diagonal)^3 encloses
   !> nothing (e.g. a doubly covered sheet): no mass properties can come from it.
@@ -373,5 +373,33 @@ contains
     character(len=:), allocatable :: text
     text = str(x, '(1pg0.9)')
   end function real_text
+
+  !> A closed, connected, genus-0 surface that is locally convex at every edge (the far
+  !> vertex of each neighbouring face lies on or below the face's plane, to a round-off
+  !> tolerance of 1e-10 of the bounding-box diagonal) bounds a convex solid. Needs topology.
+  !> Convex pairs get the tighter time-of-contact bound (along the normal).
+  pure logical function is_convex(m)
+    type(mesh_t), intent(in) :: m
+    integer :: e, f1, f2, k, far
+    real(dp) :: n(3), lower(3), upper(3), tolerance, p0(3)
+    is_convex = .false.
+    if (.not. m%has_topology()) return
+    if (m%n_nodes - m%n_edges + m%n_faces /= 2) return
+    if (component_count(m) /= 1) return
+    call m%bounds(lower, upper)
+    tolerance = 1.0e-10_dp*norm2(upper - lower)
+    do e = 1, m%n_edges
+      f1 = m%edge_faces(1, e)
+      f2 = m%edge_faces(2, e)
+      far = 0
+      do k = 1, 3
+        if (m%faces(k, f2) /= m%edges(1, e) .and. m%faces(k, f2) /= m%edges(2, e)) far = m%faces(k, f2)
+      end do
+      n = m%face_normal(f1)
+      p0 = m%nodes(:, m%edges(1, e))
+      if (dot_product(n, m%nodes(:, far) - p0) > tolerance) return
+    end do
+    is_convex = .true.
+  end function is_convex
 
 end module mesh_topology

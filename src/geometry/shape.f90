@@ -26,6 +26,7 @@ module shape
     real(dp) :: q_principal(4) = quat_identity
     real(dp) :: com_offset(3) = 0.0_dp       !< centre of mass in the definition frame [m]
     real(dp) :: bounding_radius = 0.0_dp     !< largest distance of the surface from the COM [m]
+    logical :: convex = .true.               !< convex solid (spheres, boxes, ...): tighter contact bounds
     real(dp) :: aabb_lower(3) = 0.0_dp       !< bounds in the principal frame [m]
     real(dp) :: aabb_upper(3) = 0.0_dp
   end type shape_t

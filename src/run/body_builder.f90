@@ -11,7 +11,7 @@ module body_builder
   use random_stream, only: random_stream_t
   use mesh, only: mesh_t
   use mesh_io, only: read_mesh_file
-  use mesh_topology, only: build_mesh_topology
+  use mesh_topology, only: build_mesh_topology, is_convex
   use shape, only: shape_t, shape_library_t, SHAPE_SPHERE
   use shape_builders, only: box_mesh, cylinder_mesh
   use shape_factory, only: make_sphere_shape, make_mesh_shape
@@ -75,7 +75,10 @@ contains
           if (err%ok() .and. (spec%shape == 'box' .or. spec%shape == 'cylinder')) call build_mesh_topology(m, err)
           if (err%ok() .and. spec%shape /= 'sphere') call make_mesh_shape(m, label, new_shape, err)
           ! One SKD-tree per shape, shared by every body of that shape.
-          if (err%ok() .and. spec%shape /= 'sphere') call new_shape%tree%build(new_shape%mesh, err)
+          if (err%ok() .and. spec%shape /= 'sphere') then
+            call new_shape%tree%build(new_shape%mesh, err)
+            new_shape%convex = is_convex(new_shape%mesh)
+          end if
           if (err%failed()) then
             call err%prefix(where)
             return
