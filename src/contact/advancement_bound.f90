@@ -69,6 +69,8 @@ contains
   !> Earliest t > 0 at which the bound can close a gap s > 0; huge() if it never can.
   !> Solves b t + a t^2/2 = s in the form t = 2 s / (b + sqrt(b^2 + 2 a s)), which has no
   !> cancellation when b > 0 (the usual case) and is exact for a = 0.
+  !> For s = 0 it is the time until the bound may turn positive: 0 if the pair may be
+  !> closing now, -2b/a if it separates and then returns, huge() if it never closes.
   pure real(dp) function time_to_close(bound, gap)
     type(closing_bound_t), intent(in) :: bound
     real(dp), intent(in) :: gap
@@ -76,7 +78,13 @@ contains
     b = bound%rate
     a = bound%acceleration
     if (gap <= 0.0_dp) then
-      time_to_close = 0.0_dp
+      if (b > 0.0_dp .or. (b == 0.0_dp .and. a > 0.0_dp)) then
+        time_to_close = 0.0_dp
+      else if (a > 0.0_dp) then
+        time_to_close = -2.0_dp*b/a
+      else
+        time_to_close = huge(1.0_dp)
+      end if
       return
     end if
     disc = b*b + 2.0_dp*a*gap

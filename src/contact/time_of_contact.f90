@@ -51,6 +51,11 @@ contains
 
   !> Advances the pair over [0, step] towards the gap `target` (the minimum separation).
   !> gap0/normal0: the closest points at t = 0 (the caller has them from the broad phase).
+  !>
+  !> A pair already within the contact band (gap <= target + tolerance/2) may not close at
+  !> all: it advances only while the bound says it cannot be getting closer than it is (a
+  !> pair separating after an impulse flies until it could be back), and reports contact
+  !> at once if it may be approaching. So no pair ever ends closer than min(gap0, target).
   subroutine advance_pair(oracle, motion, gap0, normal0, step, target, tolerance, max_iterations, result)
     class(distance_oracle_t), intent(inout) :: oracle
     type(pair_motion_t), intent(in) :: motion
@@ -66,23 +71,27 @@ contains
     gap = gap0
     normal = normal0
     do
-      if (gap <= target + tolerance) then
-        result%contact = .true.
-        exit
-      end if
       if (result%iterations >= max_iterations) then
         result%capped = .true.
         exit
       end if
       bound = closing_bound(motion, normal, t)
-      dt = time_to_close(bound, gap - aim)
+      dt = time_to_close(bound, max(gap - aim, 0.0_dp))
       if (dt >= step - t) then
         t = step
+        exit
+      end if
+      if (dt <= 0.0_dp) then
+        result%contact = .true.       ! in the band and possibly approaching: an event now
         exit
       end if
       t = t + dt
       call oracle%gap_at(t, gap, normal)
       result%iterations = result%iterations + 1
+      if (gap <= target + tolerance) then
+        result%contact = .true.
+        exit
+      end if
     end do
     result%time = t
     result%gap = gap

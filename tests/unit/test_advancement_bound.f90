@@ -23,6 +23,13 @@ program test_advancement_bound
   call check_close(time_to_close(bound, 0.5_dp), 1.0_dp, 1.0e-7_dp, 'grazing root at the apex')
   bound = closing_bound_t(rate=-1.0_dp, acceleration=0.0_dp)
   call check(time_to_close(bound, 1.0_dp) == huge(1.0_dp), 'receding pair never closes')
+  ! Zero gap (a pair in contact): when may it start closing?
+  call check(time_to_close(closing_bound_t(rate=0.5_dp, acceleration=0.0_dp), 0.0_dp) == 0.0_dp, &
+             'zero gap, approaching: now')
+  call check(time_to_close(closing_bound_t(rate=-2.0_dp, acceleration=9.81_dp), 0.0_dp) == 4.0_dp/9.81_dp, &
+             'zero gap, separating under gravity: back after -2b/a (a bounce)')
+  call check(time_to_close(closing_bound_t(rate=0.0_dp, acceleration=0.0_dp), 0.0_dp) == huge(1.0_dp), &
+             'zero gap, at rest with no force: never (touching balls of a cradle)')
   bound = closing_bound_t(rate=-1.0_dp, acceleration=2.0_dp)     ! recedes, then returns
   t = time_to_close(bound, 1.0_dp)
   call check_close(closing_distance(bound, t), 1.0_dp, 1.0e-14_dp, 'root solves b t + a t^2/2 = s')

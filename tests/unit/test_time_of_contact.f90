@@ -86,6 +86,22 @@ program test_time_of_contact
   call check(res%contact .and. res%gap >= target .and. pair%min_gap_seen >= target, &
              'tunnelling: fast small ball stops at the target gap')
 
+  ! 6. In the contact band: separating after a bounce under gravity, the pair flies until it
+  !    could be back (one bound step, exact for translation: back at the same gap) and
+  !    reports contact there; approaching, it reports contact at once.
+  call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 1.0_dp, &
+             [0.0_dp, 0.0_dp, 2.0_dp + target + 0.25_dp*tolerance], [0.0_dp, 0.0_dp, 3.0_dp], &
+             [0.0_dp, 0.0_dp, -9.81_dp], 1.0_dp)
+  call pair%gap_at(0.0_dp, gap0, n0)
+  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 50, res)
+  call check(res%contact .and. res%iterations <= 2, 'bounce: contact again after one flight')
+  call check_close(res%time, 6.0_dp/9.81_dp, 1.0e-12_dp, 'bounce: flight time 2 v / g')
+  call check(pair%min_gap_seen >= target, 'bounce: never below target')
+  pair%v_b = -pair%v_b
+  call pair%gap_at(0.0_dp, gap0, n0)
+  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 50, res)
+  call check(res%contact .and. res%time == 0.0_dp, 'in the band and approaching: contact at once')
+
   ! 5. The non-convex (any-direction) bound is safe too, just slower on oblique approaches.
   call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [1.0_dp, 1.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp, &
              [3.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp)
