@@ -25,10 +25,10 @@ module history_writer
     'time [s],dt [s],steps [1],kinetic_translational [J],kinetic_rotational [J],potential [J],'// &
     'energy_total [J],momentum_x [kg m/s],momentum_y [kg m/s],momentum_z [kg m/s],'// &
     'angular_momentum_x [kg m^2/s],angular_momentum_y [kg m^2/s],angular_momentum_z [kg m^2/s],'// &
-    'wall_time [s]'
+    'wall_time [s],events [1],contacts [1],advancement_iterations [1],min_separation [m]'
   integer, parameter :: line_length = 16384
   character(len=*), parameter :: row_format = &
-    '(2(es24.16e3,","),i0,",",10(es24.16e3,","),es24.16e3)'
+    '(2(es24.16e3,","),i0,",",11(es24.16e3,","),3(i0,","),es24.16e3)'
 
   !> One row: global values (already reduced over ranks).
   type :: history_record_t
@@ -41,6 +41,10 @@ module history_writer
     real(dp) :: momentum(3) = 0.0_dp             !< total linear momentum [kg m/s]
     real(dp) :: angular_momentum(3) = 0.0_dp     !< total, about the origin [kg m^2/s]
     real(dp) :: wall_time = 0.0_dp               !< since the start of the first run [s]
+    integer(i8) :: events = 0                    !< steps that ended at a contact, so far
+    integer(i8) :: contacts = 0                  !< contact points handed to the impulse solver, so far
+    integer(i8) :: advancement_iterations = 0    !< closest-point queries in time of contact, so far
+    real(dp) :: min_separation = huge(1.0_dp)    !< smallest gap between bodies seen so far [m]
   end type history_record_t
 
   type :: history_writer_t
@@ -149,7 +153,8 @@ contains
         write (self%unit, row_format, iostat=status) rec%time, rec%dt, rec%steps, rec%kinetic_translational, &
           rec%kinetic_rotational, rec%potential, &
           rec%kinetic_translational + rec%kinetic_rotational + rec%potential, &
-          rec%momentum, rec%angular_momentum, rec%wall_time
+          rec%momentum, rec%angular_momentum, rec%wall_time, rec%events, rec%contacts, &
+          rec%advancement_iterations, rec%min_separation
         if (status == 0) flush (self%unit, iostat=status)
         if (status /= 0) call err%set(ERR_IO, "cannot write to history file '"//self%path//"'")
       end if

@@ -13,6 +13,7 @@ module simulation
   use body_builder, only: build_shapes, build_bodies, count_bodies, owned_range
   use conservation, only: system_totals_t, compute_totals
   use overlap_check, only: check_initial_overlaps
+  use collision_stage, only: collision_stage_t
   use newmark_integrator, only: free_flight_stats_t
   use free_flight, only: free_flight_t
   use history_writer, only: history_writer_t, history_record_t, history_fresh_start
@@ -56,6 +57,7 @@ module simulation
     real(dp) :: max_angular_momentum_error = 0.0_dp
     type(free_flight_stats_t) :: flight
     type(free_flight_t) :: propagator         !< moves bodies between events
+    type(collision_stage_t) :: collisions     !< times of contact and impulses
     logical :: restarted = .false.
   contains
     procedure :: init => simulation_init
@@ -98,6 +100,8 @@ contains
       call check_overlaps(self, par, shape_of_group, err)
       if (err%failed()) return
     end if
+    call self%collisions%init(deck, self%shapes, self%bodies, err)
+    if (err%failed()) return
 
     if (deck%output%checkpoint_interval > 0.0_dp) then
       self%next_checkpoint = deck%output%checkpoint_interval
@@ -190,6 +194,11 @@ contains
     self%max_energy_error = counter(meta, 'max_energy_error')
     self%max_momentum_error = counter(meta, 'max_momentum_error')
     self%max_angular_momentum_error = counter(meta, 'max_angular_momentum_error')
+    self%collisions%stats%events = nint(counter(meta, 'events'), i8)
+    self%collisions%stats%contacts = nint(counter(meta, 'contacts'), i8)
+    self%collisions%stats%advancement_iterations = nint(counter(meta, 'advancement_iterations'), i8)
+    self%collisions%stats%pair_tests = nint(counter(meta, 'pair_tests'), i8)
+    self%collisions%stats%min_separation = counter(meta, 'min_separation')
     self%initial%momentum = meta%p0
     self%initial%angular_momentum = meta%l0
     self%initial%mass = meta%mass0
@@ -233,7 +242,7 @@ contains
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
-    real(dp) :: h, t_end, dt_max, target, clock, time_new
+    real(dp) :: h, t_end, dt_max, target, clock, time_new, h_event
     logical :: hits_output, hits_checkpoint
 
     t_end = self%deck%run%t_end
@@ -246,7 +255,16 @@ contains
       else
         h = dt_max
       end if
-      if (h == target - self%time) then
+      ! Collisions: no body moves more than one grid box, and the step ends at the earliest
+      ! time of contact.
+      h = self%collisions%limit_step(self%bodies, self%deck%run%gravity, h)
+      call self%collisions%earliest_contact(self%bodies, self%shapes, self%propagator, self%time, h, &
+                                            self%deck%run%gravity, self%deck%integrator, h_event, err)
+      if (err%failed()) return
+      if (h_event < h) then
+        h = h_event
+        time_new = self%time + h
+      else if (h == target - self%time) then
         time_new = target          ! exactly: output times stay k*interval, with no drift
       else
         time_new = self%time + h
@@ -258,6 +276,8 @@ contains
       self%step = self%step + 1
       self%last_dt = h
       self%time = time_new
+      call self%collisions%resolve(self%bodies, self%shapes, self%propagator, h, err)
+      if (err%failed()) return
       hits_output = self%time >= self%next_output
       hits_checkpoint = self%time >= self%next_checkpoint
       if (hits_output .or. self%time >= t_end .or. self%time >= self%next_history) then
@@ -301,6 +321,10 @@ contains
     rec%momentum = now%momentum
     rec%angular_momentum = now%angular_momentum
     rec%wall_time = self%wall_before + (par%wtime() - self%wall_start)
+    rec%events = self%collisions%stats%events
+    rec%contacts = self%collisions%stats%contacts
+    rec%advancement_iterations = self%collisions%stats%advancement_iterations
+    rec%min_separation = self%collisions%stats%min_separation
     call self%history%write(par, rec, err)
     ! Conservation errors relative to the initial kinetic plus |potential| energy scale, and
     ! to the momentum scale: meaningful whatever the origin of the potential.
@@ -365,9 +389,13 @@ contains
     meta%checksum = bodies_checksum(par, self%bodies)
     meta%counter_names = [character(len=name_length) :: 'initial_kinetic_translational', &
                           'initial_kinetic_rotational', 'initial_potential', 'max_energy_error', &
-                          'max_momentum_error', 'max_angular_momentum_error']
+                          'max_momentum_error', 'max_angular_momentum_error', 'events', 'contacts', &
+                          'advancement_iterations', 'pair_tests', 'min_separation']
     meta%counters = [self%initial%kinetic_translational, self%initial%kinetic_rotational, self%initial%potential, &
-                     self%max_energy_error, self%max_momentum_error, self%max_angular_momentum_error]
+                     self%max_energy_error, self%max_momentum_error, self%max_angular_momentum_error, &
+                     real(self%collisions%stats%events, dp), real(self%collisions%stats%contacts, dp), &
+                     real(self%collisions%stats%advancement_iterations, dp), &
+                     real(self%collisions%stats%pair_tests, dp), self%collisions%stats%min_separation]
   end subroutine fill_meta
 
   subroutine progress(self, par)
@@ -406,6 +434,16 @@ contains
       '  (about the centre of mass, relative)'
     write (*, '(a,i0,a,i0,a,i0)') '  rotation iterations  ', self%flight%iterations_total, ' (max per update ', &
       self%flight%iterations_max, '), not converged: ', self%flight%not_converged
+    write (*, '(a,i0,a,i0,a,i0,a)') '  contact events       ', self%collisions%stats%events, ' (', &
+      self%collisions%stats%contacts, ' contact points, ', self%collisions%impulses%groups, ' impulse groups)'
+    write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', self%collisions%stats%pair_tests, ' pair queries, ', &
+      self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, ' capped)'
+    if (self%collisions%stats%min_separation < huge(1.0_dp)) then
+      write (*, '(a,es10.3,a,es10.3,a)') '  smallest separation  ', self%collisions%stats%min_separation, &
+        ' m (minimum separation ', self%collisions%target, ' m)'
+    else
+      write (*, '(a)') '  smallest separation  no two bodies ever came near'
+    end if
     write (*, '(a,i0,a)') '  frames written       ', self%frames%n_frames, ' in '//self%output_dir
   end subroutine simulation_summary
 

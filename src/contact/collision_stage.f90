@@ -1,0 +1,384 @@
+!> The collision stage of a step: broad phase, time of contact of every candidate pair by
+!> conservative advancement, and, once the bodies have been moved to the earliest contact,
+!> the contact sets of the touching pairs and their simultaneous impulses.
+!>
+!> Per step: (1) limit_step caps the step so that no body moves more than one grid box;
+!> (2) earliest_contact puts every body's bounding sphere, grown by how far it can travel
+!> in the step, into the bucket grid, takes the candidate pairs (two rings), computes their
+!> closest points and advances each pair (time_of_contact) with the motion the propagator
+!> will make; the smallest time is the step; (3) after the move, resolve builds the contact
+!> points of the pairs that reached contact (all features within the contact tolerance) and
+!> applies the impulses (impulse_solver). Bodies far from everything cost a grid entry and
+!> no closest-point query.
+module collision_stage
+  use kinds, only: dp, i8
+  use error_status, only: error_t, ERR_NUMERIC
+  use string_utils, only: str
+  use input_config, only: deck_t, integrator_config_t
+  use shape, only: shape_library_t, SHAPE_SPHERE
+  use body_state, only: bodies_t
+  use free_flight, only: free_flight_t
+  use bucket_grid, only: bucket_grid_t, choose_box_size
+  use advancement_bound, only: angular_speed_bound
+  use time_of_contact, only: pair_motion_t, advancement_result_t, distance_oracle_t, advance_pair
+  use mesh_distance, only: distance_result_t, mesh_mesh_distance, sphere_mesh_distance
+  use contact_features, only: contact_feature_t, find_contact_features
+  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity
+  use quaternion, only: quat_rotate_inverse
+  implicit none
+  private
+  public :: collision_stage_t, collision_stats_t
+
+  type :: collision_stats_t
+    integer(i8) :: events = 0                  !< steps that ended at a contact
+    integer(i8) :: advancement_iterations = 0  !< closest-point queries inside time of contact
+    integer(i8) :: pair_tests = 0              !< candidate pairs given a closest-point query
+    integer(i8) :: contacts = 0                !< contact points handed to the impulse solver
+    integer(i8) :: capped = 0                  !< pairs stopped by the iteration cap (safe, short)
+    real(dp) :: min_separation = huge(1.0_dp)  !< smallest gap ever computed [m]
+  end type collision_stats_t
+
+  type :: collision_stage_t
+    real(dp) :: target = 0.0_dp              !< min_separation [m]
+    real(dp) :: tolerance = 0.0_dp           !< time-of-contact gap tolerance [m]
+    real(dp) :: contact_tolerance = 0.0_dp   !< features within gap + this are contacts [m]
+    real(dp) :: velocity_tolerance = 0.0_dp  !< approach speeds below this do not reflect [m/s]
+    real(dp) :: restitution = 0.0_dp
+    integer :: max_iterations = 100
+    integer :: max_rounds = 100
+    real(dp) :: box_size = 0.0_dp            !< grid box edge [m]
+    type(bucket_grid_t) :: grid
+    integer, allocatable :: pairs(:, :)
+    integer :: n_pairs = 0
+    integer, allocatable :: event_pairs(:, :) !< pairs that reached contact at the step's end
+    integer :: n_events = 0
+    integer :: zero_steps = 0                !< consecutive steps of length 0 (stall guard)
+    type(collision_stats_t) :: stats
+    type(impulse_stats_t) :: impulses
+  contains
+    procedure :: init => stage_init
+    procedure :: limit_step => stage_limit_step
+    procedure :: earliest_contact => stage_earliest_contact
+    procedure :: resolve => stage_resolve
+  end type collision_stage_t
+
+  !> Closest points of one pair at time_now + t, with the poses the propagator will give.
+  type, extends(distance_oracle_t) :: pair_oracle_t
+    type(free_flight_t), pointer :: flight => null()
+    type(bodies_t), pointer :: bodies => null()
+    type(shape_library_t), pointer :: shapes => null()
+    type(integrator_config_t) :: config
+    integer :: i = 0, j = 0
+    real(dp) :: time_now = 0.0_dp, gravity(3) = 0.0_dp
+    real(dp) :: min_gap = huge(1.0_dp)
+  contains
+    procedure :: gap_at => oracle_gap_at
+  end type pair_oracle_t
+
+contains
+
+  !> Tolerances from the deck (auto values relative to the smallest body) and the grid box
+  !> size from the smallest moving body.
+  subroutine stage_init(self, deck, shapes, bodies, err)
+    class(collision_stage_t), intent(inout) :: self
+    type(deck_t), intent(in) :: deck
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: extent(:)
+    real(dp) :: smallest
+    integer :: i
+    allocate (extent(bodies%n_owned))
+    do i = 1, bodies%n_owned
+      extent(i) = 2.0_dp*shapes%shapes(bodies%shape_id(i))%bounding_radius
+    end do
+    if (any(.not. bodies%fixed(1:bodies%n_owned))) extent = pack(extent, .not. bodies%fixed(1:bodies%n_owned))
+    if (size(extent) == 0) extent = [1.0_dp]
+    smallest = minval(extent)
+    self%target = deck%contact%min_separation
+    if (self%target <= 0.0_dp) self%target = 1.0e-4_dp*smallest   ! auto: docs/input.md
+    ! The advancement stops within 10% of the minimum separation above it; contact points
+    ! are all features within one minimum separation of the closest one.
+    self%tolerance = 0.1_dp*self%target
+    self%contact_tolerance = self%target
+    self%velocity_tolerance = 1.0e-9_dp
+    self%restitution = deck%contact%restitution
+    call choose_box_size(extent, 1.0_dp, self%box_size, err)
+    if (err%failed()) return
+    call self%grid%init(self%box_size, err)
+  end subroutine stage_init
+
+  !> The largest step that keeps every body within one grid box: |v| h + |a| h^2/2 <= box.
+  pure real(dp) function stage_limit_step(self, bodies, gravity, h) result(limited)
+    class(collision_stage_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    real(dp), intent(in) :: gravity(3), h
+    real(dp) :: speed, g
+    integer :: i
+    limited = h
+    g = norm2(gravity)
+    do i = 1, bodies%n_owned
+      if (bodies%fixed(i)) cycle
+      speed = norm2(bodies%v(:, i))
+      if (speed*limited + 0.5_dp*g*limited*limited > self%box_size) &
+        limited = 2.0_dp*self%box_size/(speed + sqrt(speed*speed + 2.0_dp*g*self%box_size))
+    end do
+  end function stage_limit_step
+
+  !> Earliest time of contact in [0, h] over all candidate pairs: h_event <= h. The pairs
+  !> that reach contact at h_event are kept for resolve.
+  subroutine stage_earliest_contact(self, bodies, shapes, flight, time_now, h, gravity, config, h_event, err)
+    class(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(in), target :: bodies
+    type(shape_library_t), intent(in), target :: shapes
+    type(free_flight_t), intent(inout), target :: flight
+    real(dp), intent(in) :: time_now, h, gravity(3)
+    type(integrator_config_t), intent(in) :: config
+    real(dp), intent(out) :: h_event
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: lower(:, :), upper(:, :), margin(:)
+    type(pair_oracle_t) :: oracle
+    type(pair_motion_t) :: motion
+    type(advancement_result_t) :: res
+    real(dp) :: r, gap0, normal0(3), g
+    real(dp), allocatable :: pair_time(:)
+    integer :: n, i, j, k
+
+    n = bodies%n_owned + bodies%n_ghost
+    h_event = h
+    self%n_events = 0
+    if (n < 2) return
+    g = norm2(gravity)
+    allocate (lower(3, n), upper(3, n), margin(n))
+    do i = 1, n
+      r = shapes%shapes(bodies%shape_id(i))%bounding_radius
+      lower(:, i) = bodies%x(:, i) - r
+      upper(:, i) = bodies%x(:, i) + r
+      ! The bounding sphere does not move when the body turns: only translation grows it.
+      margin(i) = 0.0_dp
+      if (.not. bodies%fixed(i)) margin(i) = norm2(bodies%v(:, i))*h + 0.5_dp*g*h*h
+    end do
+    call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)
+    if (err%failed()) return
+    call self%grid%candidate_pairs(2, margin, self%pairs, self%n_pairs, err, n_owned=bodies%n_owned)
+    if (err%failed()) return
+    if (self%n_pairs == 0) return
+
+    oracle%flight => flight
+    oracle%bodies => bodies
+    oracle%shapes => shapes
+    oracle%config = config
+    oracle%time_now = time_now
+    oracle%gravity = gravity
+    allocate (pair_time(self%n_pairs))
+    pair_time = huge(1.0_dp)
+    do k = 1, self%n_pairs
+      i = self%pairs(1, k)
+      j = self%pairs(2, k)
+      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                    gap0, normal0)
+      self%stats%pair_tests = self%stats%pair_tests + 1
+      self%stats%min_separation = min(self%stats%min_separation, gap0)
+      motion = pair_motion(shapes, bodies, i, j, gravity)
+      oracle%i = i
+      oracle%j = j
+      oracle%min_gap = huge(1.0_dp)
+      call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, self%max_iterations, res)
+      self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
+      self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
+      if (res%capped) self%stats%capped = self%stats%capped + 1
+      if (res%contact .or. res%capped) then
+        pair_time(k) = res%time
+        ! Later pairs only need to be advanced up to the earliest time found so far.
+        h_event = min(h_event, res%time)
+      end if
+    end do
+    ! The pairs that reach contact at the chosen time (capped ones only shorten the step).
+    self%n_events = count(pair_time <= h_event)
+    if (allocated(self%event_pairs)) deallocate (self%event_pairs)
+    allocate (self%event_pairs(2, self%n_events))
+    self%n_events = 0
+    do k = 1, self%n_pairs
+      if (pair_time(k) <= h_event) then
+        self%n_events = self%n_events + 1
+        self%event_pairs(:, self%n_events) = self%pairs(:, k)
+      end if
+    end do
+  end subroutine stage_earliest_contact
+
+  !> After the bodies moved to the event: contact points of every pair in contact (the
+  !> event pairs, and every candidate pair touching them, so a group is solved together),
+  !> simultaneous impulses, and the anchors of the bodies whose velocities changed.
+  subroutine stage_resolve(self, bodies, shapes, flight, h_event, err)
+    class(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    real(dp), intent(in) :: h_event
+    type(error_t), intent(inout) :: err
+    type(contact_t), allocatable :: contacts(:)
+    type(contact_feature_t), allocatable :: features(:)
+    integer :: k, f, i, j, n_contacts, n_features
+    real(dp) :: gap, normal(3), v_before(6)
+    logical :: changed
+
+    if (self%n_events == 0) return
+    self%stats%events = self%stats%events + 1
+    if (h_event <= 0.0_dp) then
+      self%zero_steps = self%zero_steps + 1
+    else
+      self%zero_steps = 0
+    end if
+    allocate (contacts(16))
+    n_contacts = 0
+    ! Every candidate pair within the contact band joins, so touching neighbours (a cradle,
+    ! a box on four corners) are solved in one simultaneous group.
+    do k = 1, self%n_pairs
+      i = self%pairs(1, k)
+      j = self%pairs(2, k)
+      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
+      self%stats%min_separation = min(self%stats%min_separation, gap)
+      if (gap > self%target + self%tolerance + self%contact_tolerance) cycle
+      associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
+        if (si%kind == SHAPE_SPHERE .or. sj%kind == SHAPE_SPHERE) then
+          call add_contact(i, j, bodies%x(:, i), normal, gap, si%kind == SHAPE_SPHERE, si%radius)
+        else
+          call find_contact_features(si%tree, bodies%x(:, i), bodies%q(:, i), sj%tree, bodies%x(:, j), bodies%q(:, j), &
+                                     gap + self%contact_tolerance, features, n_features)
+          do f = 1, n_features
+            call push(contact_t(a=i, b=j, point=0.5_dp*(features(f)%point_a + features(f)%point_b), &
+                                normal=features(f)%normal, restitution=self%restitution))
+          end do
+        end if
+      end associate
+    end do
+    if (n_contacts == 0) return
+    self%stats%contacts = self%stats%contacts + n_contacts
+    block
+      real(dp), allocatable :: v_old(:, :), w_old(:, :)
+      v_old = bodies%v
+      w_old = bodies%w
+      call resolve_impacts(bodies, contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, self%impulses, err)
+      if (err%failed()) return
+      changed = .false.
+      do i = 1, bodies%n_owned
+        v_before = [v_old(:, i), w_old(:, i)]
+        if (any(v_before /= [bodies%v(:, i), bodies%w(:, i)])) then
+          call flight%release(i)
+          changed = .true.
+        end if
+      end do
+    end block
+    ! A step of length zero that changed nothing cannot be followed by another: that is a
+    ! body resting under a steady load, which needs the resting-contact treatment.
+    if (self%zero_steps > 1000) then
+      call err%set(ERR_NUMERIC, 'collision loop stalled: 1000 steps of zero length at a persistent contact '// &
+                   '(bodies resting on each other under a load); resting contact is not handled yet')
+    end if
+
+  contains
+
+    subroutine push(c)
+      type(contact_t), intent(in) :: c
+      type(contact_t), allocatable :: grown(:)
+      if (n_contacts == size(contacts)) then
+        allocate (grown(2*size(contacts)))
+        grown(1:n_contacts) = contacts(1:n_contacts)
+        call move_alloc(grown, contacts)
+      end if
+      n_contacts = n_contacts + 1
+      contacts(n_contacts) = c
+    end subroutine push
+
+    !> One contact point for a pair with a sphere: the middle of the gap on the line of the
+    !> normal, starting from the sphere's surface (or from the mesh when b is the sphere).
+    subroutine add_contact(a, b, xa, n, gap_ab, a_is_sphere, radius_a)
+      integer, intent(in) :: a, b
+      real(dp), intent(in) :: xa(3), n(3), gap_ab, radius_a
+      logical, intent(in) :: a_is_sphere
+      real(dp) :: p(3), rb
+      if (a_is_sphere) then
+        p = xa + (radius_a + 0.5_dp*gap_ab)*n
+      else
+        ! b is the sphere: its surface point towards a, then half the gap back
+        rb = shapes%shapes(bodies%shape_id(b))%radius
+        p = bodies%x(:, b) - (rb + 0.5_dp*gap_ab)*n
+      end if
+      call push(contact_t(a=a, b=b, point=p, normal=n, restitution=self%restitution))
+    end subroutine add_contact
+
+  end subroutine stage_resolve
+
+  !> The bound's inputs: velocities and accelerations at the step's start and angular
+  !> speed bound times the largest radius (zero for analytic spheres: turning moves none of
+  !> their surface).
+  function pair_motion(shapes, bodies, i, j, gravity) result(motion)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i, j
+    real(dp), intent(in) :: gravity(3)
+    type(pair_motion_t) :: motion
+    motion%v_a = bodies%v(:, i)
+    motion%v_b = bodies%v(:, j)
+    motion%a_a = merge(0.0_dp, 1.0_dp, bodies%fixed(i))*gravity
+    motion%a_b = merge(0.0_dp, 1.0_dp, bodies%fixed(j))*gravity
+    motion%omega_r_a = omega_r(i)
+    motion%omega_r_b = omega_r(j)
+    motion%convex = shapes%shapes(bodies%shape_id(i))%convex .and. shapes%shapes(bodies%shape_id(j))%convex
+  contains
+    real(dp) function omega_r(k)
+      integer, intent(in) :: k
+      if (bodies%fixed(k) .or. shapes%shapes(bodies%shape_id(k))%kind == SHAPE_SPHERE) then
+        omega_r = 0.0_dp
+      else
+        ! 1e-12 relative slack: the propagators conserve T to round-off, not exactly.
+        omega_r = (1.0_dp + 1.0e-12_dp)*angular_speed_bound(bodies%inertia(:, k), &
+                  quat_rotate_inverse(bodies%q(:, k), bodies%w(:, k)))*shapes%shapes(bodies%shape_id(k))%bounding_radius
+      end if
+    end function omega_r
+  end function pair_motion
+
+  !> Gap and unit normal (from i to j) between two posed bodies.
+  subroutine pair_gap(shapes, bodies, i, j, xi, qi, xj, qj, gap, normal)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i, j
+    real(dp), intent(in) :: xi(3), qi(4), xj(3), qj(4)
+    real(dp), intent(out) :: gap, normal(3)
+    type(distance_result_t) :: d
+    real(dp) :: between(3)
+    associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
+      if (si%kind == SHAPE_SPHERE .and. sj%kind == SHAPE_SPHERE) then
+        between = xj - xi
+        gap = norm2(between) - si%radius - sj%radius
+        normal = between/norm2(between)
+      else if (si%kind == SHAPE_SPHERE) then
+        call sphere_mesh_distance(xi, si%radius, sj%tree, xj, qj, d)
+        gap = d%distance
+        normal = d%normal
+      else if (sj%kind == SHAPE_SPHERE) then
+        call sphere_mesh_distance(xj, sj%radius, si%tree, xi, qi, d)
+        gap = d%distance
+        normal = -d%normal
+      else
+        call mesh_mesh_distance(si%tree, xi, qi, sj%tree, xj, qj, d)
+        gap = d%distance
+        normal = d%normal
+      end if
+    end associate
+  end subroutine pair_gap
+
+  subroutine oracle_gap_at(self, t, gap, normal)
+    class(pair_oracle_t), intent(inout) :: self
+    real(dp), intent(in) :: t
+    real(dp), intent(out) :: gap, normal(3)
+    real(dp) :: xi(3), qi(4), xj(3), qj(4)
+    call self%flight%pose_at(self%bodies, self%i, self%time_now, t, self%gravity, self%config, xi, qi)
+    call self%flight%pose_at(self%bodies, self%j, self%time_now, t, self%gravity, self%config, xj, qj)
+    call pair_gap(self%shapes, self%bodies, self%i, self%j, xi, qi, xj, qj, gap, normal)
+    self%min_gap = min(self%min_gap, gap)
+  end subroutine oracle_gap_at
+
+end module collision_stage
