@@ -26,6 +26,8 @@ if(RICOCHET_USE_HDF5)
                        ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise)
   ricochet_python_case(restart_bitwise_newmark check_restart.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise_newmark newmark)
+  ricochet_python_case(bouncing_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
+                       ${PROJECT_SOURCE_DIR}/input/validation/bouncing_ball.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_bouncing_ball)
   ricochet_python_case(free_rotation_deck check_free_rotation.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_free_rotation_deck ${RICOCHET_TEST_DATA}/free_rotation_I123.csv)
   # (runs a few valid decks too, which write output)
