@@ -184,7 +184,8 @@ contains
       oracle%i = i
       oracle%j = j
       oracle%min_gap = huge(1.0_dp)
-      call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, self%max_iterations, res)
+      call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, 0.5_dp*self%target, &
+                        self%velocity_tolerance, self%max_iterations, res)
       self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
       self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
       if (res%capped) self%stats%capped = self%stats%capped + 1

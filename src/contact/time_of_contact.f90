@@ -52,14 +52,20 @@ contains
   !> Advances the pair over [0, step] towards the gap `target` (the minimum separation).
   !> gap0/normal0: the closest points at t = 0 (the caller has them from the broad phase).
   !>
-  !> A pair already within the contact band (gap <= target + tolerance/2) may not close at
-  !> all: it advances only while the bound says it cannot be getting closer than it is (a
-  !> pair separating after an impulse flies until it could be back), and reports contact
-  !> at once if it may be approaching. So no pair ever ends closer than min(gap0, target).
-  subroutine advance_pair(oracle, motion, gap0, normal0, step, target, tolerance, max_iterations, result)
+  !> A pair already within the contact band (gap <= target + tolerance/2):
+  !>  - approaching faster than velocity_tolerance: contact now (an impulse follows);
+  !>  - separating faster than that: it may not come closer than it is, so it flies until
+  !>    the bound says it could be back (a bouncing ball returns to the same gap);
+  !>  - neither (resting, or equal speeds up to round-off, as in a Newton's cradle): it may
+  !>    settle by at most the distance to `floor` (< target), so round-off in the relative
+  !>    velocity never stalls the run, and no gap ever falls below the floor.
+  subroutine advance_pair(oracle, motion, gap0, normal0, step, target, tolerance, floor, velocity_tolerance, &
+                          max_iterations, result)
     class(distance_oracle_t), intent(inout) :: oracle
     type(pair_motion_t), intent(in) :: motion
     real(dp), intent(in) :: gap0, normal0(3), step, target, tolerance
+    real(dp), intent(in) :: floor                !< smallest gap a resting pair may settle to [m]
+    real(dp), intent(in) :: velocity_tolerance   !< closing speeds below this count as resting [m/s]
     integer, intent(in) :: max_iterations
     type(advancement_result_t), intent(out) :: result
     type(closing_bound_t) :: bound
@@ -76,13 +82,22 @@ contains
         exit
       end if
       bound = closing_bound(motion, normal, t)
-      dt = time_to_close(bound, max(gap - aim, 0.0_dp))
+      if (gap > aim) then
+        dt = time_to_close(bound, gap - aim)
+      else if (bound%rate > velocity_tolerance) then
+        result%contact = .true.       ! in the band and approaching: an event now
+        exit
+      else if (bound%rate < -velocity_tolerance) then
+        dt = time_to_close(bound, 0.0_dp)
+      else
+        dt = time_to_close(bound, max(gap - floor, 0.0_dp))
+      end if
       if (dt >= step - t) then
         t = step
         exit
       end if
       if (dt <= 0.0_dp) then
-        result%contact = .true.       ! in the band and possibly approaching: an event now
+        result%contact = .true.
         exit
       end if
       t = t + dt

@@ -28,6 +28,14 @@ if(RICOCHET_USE_HDF5)
                        ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise_newmark newmark)
   ricochet_python_case(bouncing_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/bouncing_ball.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_bouncing_ball)
+  foreach(pair cradle:newtons_cradle two_three:cradle_two_into_three billiards:billiards_break
+               tunnelling:tunnelling cube_drop:cube_drop)
+    string(REPLACE ":" ";" pair ${pair})
+    list(GET pair 0 case)
+    list(GET pair 1 deck)
+    ricochet_python_case(${deck} check_collisions.py ${case} $<TARGET_FILE:ricochet>
+                         ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${deck})
+  endforeach()
   ricochet_python_case(free_rotation_deck check_free_rotation.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_free_rotation_deck ${RICOCHET_TEST_DATA}/free_rotation_I123.csv)
   # (runs a few valid decks too, which write output)

@@ -51,7 +51,7 @@ program test_time_of_contact
   call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [1.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp, &
              [2.0_dp, 0.0_dp, 0.0_dp], [-1.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp)
   call pair%gap_at(0.0_dp, gap0, n0)
-  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 50, res)
+  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 50, res)
   t_exact = (1.0_dp - target)/2.0_dp
   call check(res%contact, 'head-on: contact found')
   call check(res%gap >= target .and. res%gap <= target + tolerance, 'head-on: gap lands in [target, target+tol]')
@@ -62,7 +62,7 @@ program test_time_of_contact
   call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 1.0_dp, &
              [0.0_dp, 0.0_dp, 3.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, -9.81_dp], 1.0_dp)
   call pair%gap_at(0.0_dp, gap0, n0)
-  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 50, res)
+  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 50, res)
   t_exact = sqrt(2.0_dp*(1.0_dp - target)/9.81_dp)
   call check(res%contact .and. res%gap >= target, 'drop: contact, never below target')
   ! The gap closes at ~4.4 m/s at contact, so a gap tolerance of 1e-6 m is 2.3e-7 s.
@@ -73,7 +73,7 @@ program test_time_of_contact
   call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp, &
              [-5.0_dp, 1.2_dp, 0.0_dp], [10.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp)
   call pair%gap_at(0.0_dp, gap0, n0)
-  call advance_pair(pair, motion_of(pair), gap0, n0, 1.0_dp, target, tolerance, 200, res)
+  call advance_pair(pair, motion_of(pair), gap0, n0, 1.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 200, res)
   call check(.not. res%contact .and. res%time == 1.0_dp, 'near miss: no contact, full step')
   call check(pair%min_gap_seen >= 0.2_dp - 1.0e-12_dp, 'near miss: never evaluated below the true minimum gap')
 
@@ -82,7 +82,7 @@ program test_time_of_contact
   call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [1.0e4_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.005_dp, &
              [1.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.0005_dp)
   call pair%gap_at(0.0_dp, gap0, n0)
-  call advance_pair(pair, motion_of(pair), gap0, n0, 1.0_dp, target, tolerance, 50, res)
+  call advance_pair(pair, motion_of(pair), gap0, n0, 1.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 50, res)
   call check(res%contact .and. res%gap >= target .and. pair%min_gap_seen >= target, &
              'tunnelling: fast small ball stops at the target gap')
 
@@ -93,14 +93,21 @@ program test_time_of_contact
              [0.0_dp, 0.0_dp, 2.0_dp + target + 0.25_dp*tolerance], [0.0_dp, 0.0_dp, 3.0_dp], &
              [0.0_dp, 0.0_dp, -9.81_dp], 1.0_dp)
   call pair%gap_at(0.0_dp, gap0, n0)
-  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 50, res)
+  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 50, res)
   call check(res%contact .and. res%iterations <= 2, 'bounce: contact again after one flight')
   call check_close(res%time, 6.0_dp/9.81_dp, 1.0e-12_dp, 'bounce: flight time 2 v / g')
   call check(pair%min_gap_seen >= target, 'bounce: never below target')
   pair%v_b = -pair%v_b
   call pair%gap_at(0.0_dp, gap0, n0)
-  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 50, res)
+  call advance_pair(pair, motion_of(pair), gap0, n0, 10.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 50, res)
   call check(res%contact .and. res%time == 0.0_dp, 'in the band and approaching: contact at once')
+  ! Equal speeds up to round-off, in the band, no force (a cradle after the impact): no
+  ! event, the full step, and at most a settling towards the floor.
+  call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [1.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp, &
+             [1.0_dp + target, 0.0_dp, 0.0_dp], [1.0_dp - 1.0e-16_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp)
+  call pair%gap_at(0.0_dp, gap0, n0)
+  call advance_pair(pair, motion_of(pair), gap0, n0, 0.01_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 50, res)
+  call check(.not. res%contact .and. res%time == 0.01_dp, 'round-off approach in the band: no event, full step')
 
   ! 5. The non-convex (any-direction) bound is safe too, just slower on oblique approaches.
   call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [1.0_dp, 1.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp, &
@@ -108,7 +115,7 @@ program test_time_of_contact
   motion = motion_of(pair)
   motion%convex = .false.
   call pair%gap_at(0.0_dp, gap0, n0)
-  call advance_pair(pair, motion, gap0, n0, 10.0_dp, target, tolerance, 500, res)
+  call advance_pair(pair, motion, gap0, n0, 10.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 500, res)
   call check(pair%min_gap_seen >= target, 'any-direction bound: never below target')
   call test_finish()
 
