@@ -37,7 +37,7 @@ module checkpoint_meta
     real(dp) :: wall_time_before = 0.0_dp        !< wall time of the run(s) up to here [s]
     real(dp) :: e0 = 0.0_dp                      !< reference total energy [J]
     real(dp) :: p0(3) = 0.0_dp                   !< reference linear momentum [kg m/s]
-    real(dp) :: l0(3) = 0.0_dp                   !< reference angular momentum about the origin [kg m^2/s]
+    real(dp) :: l0(3) = 0.0_dp                   !< reference angular momentum about the centre of mass [kg m^2/s]
     real(dp) :: mass0 = 0.0_dp                   !< total mass of the free bodies [kg] (momentum under gravity)
     ! Deck fingerprint: a restart must use the deck that made the checkpoint.
     integer(i8) :: n_bodies_total = 0

@@ -39,7 +39,7 @@ module history_writer
     real(dp) :: kinetic_rotational = 0.0_dp      !< [J]
     real(dp) :: potential = 0.0_dp               !< [J]
     real(dp) :: momentum(3) = 0.0_dp             !< total linear momentum [kg m/s]
-    real(dp) :: angular_momentum(3) = 0.0_dp     !< total, about the origin [kg m^2/s]
+    real(dp) :: angular_momentum(3) = 0.0_dp     !< of the free bodies about their centre of mass [kg m^2/s]
     real(dp) :: wall_time = 0.0_dp               !< since the start of the first run [s]
     integer(i8) :: events = 0                    !< steps that ended at a contact, so far
     integer(i8) :: contacts = 0                  !< contact points handed to the impulse solver, so far

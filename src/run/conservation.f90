@@ -36,8 +36,12 @@ contains
     type(bodies_t), intent(in) :: bodies
     real(dp), intent(in) :: gravity(3)
     type(system_totals_t), intent(out) :: totals
-    real(dp) :: buffer(17), et, er, first_moment(3), l_origin(3)
+    real(dp) :: buffer(10), spin(3), et, er, x_rel(3), v_rel(3)
     integer :: i
+    ! Two passes: totals, centre of mass and its velocity first, then angular momentum about
+    ! the centre of mass from positions and velocities relative to it. (L_origin - X x P in
+    ! one pass cancels two large terms: far from the origin its round-off would be
+    ! reported as "conservation error".)
     buffer = 0.0_dp
     do i = 1, bodies%n_owned
       if (bodies%fixed(i)) cycle
@@ -47,9 +51,7 @@ contains
       buffer(3) = buffer(3) - bodies%mass(i)*dot_product(gravity, bodies%x(:, i))
       buffer(4) = buffer(4) + bodies%mass(i)
       buffer(5:7) = buffer(5:7) + bodies%mass(i)*bodies%v(:, i)
-      buffer(8:10) = buffer(8:10) + bodies%mass(i)*cross(bodies%x(:, i), bodies%v(:, i)) + &
-                     bodies%angular_momentum(i)
-      buffer(11:13) = buffer(11:13) + bodies%mass(i)*bodies%x(:, i)
+      buffer(8:10) = buffer(8:10) + bodies%mass(i)*bodies%x(:, i)
     end do
     call par%sum_inplace(buffer)
     totals%kinetic_translational = buffer(1)
@@ -57,15 +59,17 @@ contains
     totals%potential = buffer(3)
     totals%mass = buffer(4)
     totals%momentum = buffer(5:7)
-    l_origin = buffer(8:10)
-    first_moment = buffer(11:13)
-    if (totals%mass > 0.0_dp) then
-      totals%centre_of_mass = first_moment/totals%mass
-    else
-      totals%centre_of_mass = 0.0_dp
-    end if
-    ! L about the centre of mass: L_origin - X x P.
-    totals%angular_momentum = l_origin - cross(totals%centre_of_mass, totals%momentum)
+    totals%centre_of_mass = 0.0_dp
+    if (totals%mass > 0.0_dp) totals%centre_of_mass = buffer(8:10)/totals%mass
+    spin = 0.0_dp
+    do i = 1, bodies%n_owned
+      if (bodies%fixed(i)) cycle
+      x_rel = bodies%x(:, i) - totals%centre_of_mass
+      v_rel = bodies%v(:, i) - totals%momentum/max(totals%mass, tiny(1.0_dp))
+      spin = spin + bodies%mass(i)*cross(x_rel, v_rel) + bodies%angular_momentum(i)
+    end do
+    call par%sum_inplace(spin)
+    totals%angular_momentum = spin
   end subroutine compute_totals
 
 end module conservation

@@ -45,7 +45,6 @@ module simulation
     real(dp) :: history_interval = 0.0_dp     !< [s] effective (auto resolved)
     real(dp) :: next_history = 0.0_dp
     real(dp) :: next_checkpoint = huge(1.0_dp)
-    integer :: n_checkpoints = 0
     real(dp) :: wall_before = 0.0_dp      !< wall time of earlier runs (restarts) [s]
     real(dp) :: wall_start = 0.0_dp
     real(dp) :: last_progress = 0.0_dp
@@ -176,9 +175,10 @@ contains
       n = n + 1
       call copy_body(saved, i, self%bodies, int(saved%gid(i) - first + 1))
     end do
-    if (n /= self%bodies%n_owned) then
-      call err%set(ERR_CHECKPOINT, "checkpoint '"//path//"' holds "//str(n)//' of the '// &
-                   str(self%bodies%n_owned)//' bodies this rank needs')
+    ! Agreed over ranks, so every rank fails alike (and rank 0 reports it).
+    if (par%any(n /= self%bodies%n_owned)) then
+      call err%set(ERR_CHECKPOINT, "checkpoint '"//path//"' does not hold every body of the deck (ids 1.."// &
+                   str(self%n_total)//')')
       return
     end if
     self%time = meta%time
@@ -290,7 +290,8 @@ contains
         if (err%failed()) return
       end if
       if (hits_checkpoint .and. self%time < t_end) then
-        call self%write_checkpoint_now(par, 'checkpoint_'//str6(self%n_checkpoints + 1), err)
+        call self%write_checkpoint_now(par, 'checkpoint_'// &
+                                       str6(nint(self%time/self%deck%output%checkpoint_interval)), err)
         if (err%failed()) return
       end if
       call progress(self, par)
@@ -334,8 +335,10 @@ contains
     expected_p = self%initial%momentum + self%initial%mass*self%deck%run%gravity*self%time
     scale = max(norm2(self%initial%momentum), norm2(expected_p), tiny(1.0_dp))
     self%max_momentum_error = max(self%max_momentum_error, norm2(now%momentum - expected_p)/scale)
-    scale = max(norm2(self%initial%angular_momentum), tiny(1.0_dp))
-    if (norm2(self%initial%angular_momentum) > 0.0_dp) self%max_angular_momentum_error = &
+    ! Relative to |L0|, or to |L| now when the system started without angular momentum (then
+    ! any that appears counts fully).
+    scale = max(norm2(self%initial%angular_momentum), norm2(now%angular_momentum), tiny(1.0_dp))
+    self%max_angular_momentum_error = &
       max(self%max_angular_momentum_error, norm2(now%angular_momentum - self%initial%angular_momentum)/scale)
   end subroutine record_history
 
@@ -358,9 +361,11 @@ contains
     character(len=*), intent(in) :: name
     type(error_t), intent(inout) :: err
     type(checkpoint_meta_t) :: meta
+    ! Checkpoint k falls at k * interval: the next one follows from the time alone, so a
+    ! restarted run numbers and places its checkpoints as the first run did.
     if (self%time >= self%next_checkpoint) then
-      self%n_checkpoints = self%n_checkpoints + 1
-      self%next_checkpoint = real(self%n_checkpoints + 1, dp)*self%deck%output%checkpoint_interval
+      self%next_checkpoint = (anint(self%time/self%deck%output%checkpoint_interval) + 1.0_dp)* &
+                             self%deck%output%checkpoint_interval
     end if
     call self%fill_meta(par, meta)
     call write_checkpoint(par, join_path(self%output_dir, name//'.h5'), meta, self%bodies, err)
@@ -418,10 +423,10 @@ contains
     real(dp) :: wall, per_step
     wall = par%wtime() - self%wall_start
     if (.not. par%is_root()) return
-    per_step = wall/max(real(self%step, dp), 1.0_dp)
+    per_step = wall/max(real(self%step - self%first_step, dp), 1.0_dp)
     write (*, '(a)') 'ricochet: run finished at t = '//str(self%time, '(g0.6)')//' s'
     write (*, '(a,es10.3,a,i0,a,i0,a)') '  wall time            ', wall, ' s on ', par%n_ranks, ' rank(s), ', &
-      self%step, ' steps in all'
+      self%step - self%first_step, ' steps in this run'
     write (*, '(a,es10.3,a,es10.3,a)') '  time per step        ', per_step, ' s (', &
       per_step/max(real(self%n_total, dp), 1.0_dp), ' s per body)'
     write (*, '(a,es10.3,a,es10.3,a)') '  integration time     ', self%integration_wall, ' s (', &

@@ -53,7 +53,10 @@ for name in os.listdir(os.path.join(restarted, "frames")):
     if frames_time(os.path.join(restarted, "frames", name)) > half:
         os.remove(os.path.join(restarted, "frames", name))
 os.remove(os.path.join(restarted, "checkpoint_final.h5"))
-os.remove(os.path.join(restarted, "checkpoint_000002.h5")) if os.path.exists(os.path.join(restarted, "checkpoint_000002.h5")) else None
+later = sorted(n for n in os.listdir(straight) if n.startswith("checkpoint_0") and n != "checkpoint_000001.h5")
+c.check(len(later) >= 2, f"the straight run has several checkpoints after the first: {later}")
+for name in later:
+    os.remove(os.path.join(restarted, name))
 with open(os.path.join(restarted, "history.csv")) as f:
     lines = f.readlines()
 keep = [l for l in lines[1:] if float(l.split(",")[0]) <= half + 0.1]
@@ -68,6 +71,13 @@ for key in sorted(a):
     same = a[key].shape == b[key].shape and (a[key].view(np.uint8) == b[key].view(np.uint8)).all() \
         if a[key].dtype.kind in "fiu" else bool((a[key] == b[key]).all())
     c.check(same, f"bitwise identical final '{key}'")
+# Every later checkpoint is written again, under the same name, bitwise equal.
+for name in later:
+    path_b = os.path.join(restarted, name)
+    c.check(os.path.exists(path_b), f"the restarted run wrote {name} again")
+    if os.path.exists(path_b):
+        ca, cb = checkpoint(os.path.join(straight, name))[1], checkpoint(path_b)[1]
+        c.check(all(ca[k].tobytes() == cb[k].tobytes() for k in ca), f"{name}: bitwise identical")
 fa = {t: d for t, d in frames(straight)}
 fb = {t: d for t, d in frames(restarted)}
 late = [t for t in fa if t > a_attrs["time"] / 2]
@@ -76,7 +86,7 @@ c.check(all((fa[t]["position"] == fb[t]["position"]).all() for t in late if t in
         "frames after T/2 identical")
 ha, hb = history(straight), history(restarted)
 c.check(len(ha["time"]) == len(hb["time"]) and (ha["time"] == hb["time"]).all()
-        and (ha["energy_total"] == hb["energy_total"]).all(),
+        and (ha["energy_total"] == hb["energy_total"]).all() and (ha["steps"] == hb["steps"]).all(),
         "history after the restart: the same rows as the straight run's (half-written row dropped)")
 # A checkpoint from another deck (other title and bodies) is refused, naming the file.
 other = os.path.join(work, "other.nml")

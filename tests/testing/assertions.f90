@@ -107,6 +107,8 @@ contains
   subroutine test_finish()
     write (output_unit, '(i0,a,i0,a)') n_passed, ' passed, ', n_failed, ' failed'
     if (n_failed > 0) error stop 1
+    ! A test that checked nothing cannot fail: that is a defect of the test.
+    if (n_passed == 0) error stop 'no checks were made'
   end subroutine test_finish
 
 end module assertions
