@@ -433,6 +433,9 @@ contains
       real(self%n_total, dp)*real(self%step - self%first_step, dp)/max(self%integration_wall, tiny(1.0_dp)), &
       ' body updates per s)'
     write (*, '(a,i0,a,i0,a)') '  bodies               ', self%n_total, ' in ', self%shapes%n_shapes, ' distinct shapes'
+    if (self%collisions%stats%events > 0) write (*, '(a)') &
+      '  (with contacts, energy is an invariant only for e = 1, momentum and angular momentum only '// &
+      'without fixed bodies)'
     write (*, '(a,es10.3,a)') '  energy error (max)   ', self%max_energy_error, '  (relative to kinetic + |potential|)'
     write (*, '(a,es10.3,a)') '  momentum error (max) ', self%max_momentum_error, '  (P - P0 - M g t, relative)'
     write (*, '(a,es10.3,a)') '  ang. momentum error  ', self%max_angular_momentum_error, &
