@@ -19,6 +19,9 @@ module conservation
     real(dp) :: momentum(3) = 0.0_dp             !< [kg m/s]
     real(dp) :: angular_momentum(3) = 0.0_dp     !< [kg m^2/s] about the centre of mass
     real(dp) :: centre_of_mass(3) = 0.0_dp       !< [m]
+    !> sqrt(2 T sum(I_max)) [kg m^2/s]: the angular momentum the kinetic energy could carry,
+    !> a scale for angular-momentum errors that does not vanish when L does.
+    real(dp) :: angular_momentum_scale = 0.0_dp
   contains
     procedure :: energy => totals_energy
   end type system_totals_t
@@ -36,7 +39,7 @@ contains
     type(bodies_t), intent(in) :: bodies
     real(dp), intent(in) :: gravity(3)
     type(system_totals_t), intent(out) :: totals
-    real(dp) :: buffer(10), spin(3), et, er, x_rel(3), v_rel(3)
+    real(dp) :: buffer(11), spin(3), et, er, x_rel(3), v_rel(3)
     integer :: i
     ! Two passes: totals, centre of mass and its velocity first, then angular momentum about
     ! the centre of mass from positions and velocities relative to it. (L_origin - X x P in
@@ -52,6 +55,7 @@ contains
       buffer(4) = buffer(4) + bodies%mass(i)
       buffer(5:7) = buffer(5:7) + bodies%mass(i)*bodies%v(:, i)
       buffer(8:10) = buffer(8:10) + bodies%mass(i)*bodies%x(:, i)
+      buffer(11) = buffer(11) + maxval(bodies%inertia(:, i))
     end do
     call par%sum_inplace(buffer)
     totals%kinetic_translational = buffer(1)
@@ -59,6 +63,7 @@ contains
     totals%potential = buffer(3)
     totals%mass = buffer(4)
     totals%momentum = buffer(5:7)
+    totals%angular_momentum_scale = sqrt(2.0_dp*(buffer(1) + buffer(2))*buffer(11))
     totals%centre_of_mass = 0.0_dp
     if (totals%mass > 0.0_dp) totals%centre_of_mass = buffer(8:10)/totals%mass
     spin = 0.0_dp

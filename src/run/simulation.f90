@@ -335,9 +335,9 @@ contains
     expected_p = self%initial%momentum + self%initial%mass*self%deck%run%gravity*self%time
     scale = max(norm2(self%initial%momentum), norm2(expected_p), tiny(1.0_dp))
     self%max_momentum_error = max(self%max_momentum_error, norm2(now%momentum - expected_p)/scale)
-    ! Relative to |L0|, or to |L| now when the system started without angular momentum (then
-    ! any that appears counts fully).
-    scale = max(norm2(self%initial%angular_momentum), norm2(now%angular_momentum), tiny(1.0_dp))
+    ! Relative to |L0|, or, when the system started with little or none, to the angular
+    ! momentum its kinetic energy could carry (sqrt(2 T I)), so spin out of nothing counts.
+    scale = max(norm2(self%initial%angular_momentum), now%angular_momentum_scale, tiny(1.0_dp))
     self%max_angular_momentum_error = &
       max(self%max_angular_momentum_error, norm2(now%angular_momentum - self%initial%angular_momentum)/scale)
   end subroutine record_history
@@ -439,7 +439,7 @@ contains
     write (*, '(a,es10.3,a)') '  energy error (max)   ', self%max_energy_error, '  (relative to kinetic + |potential|)'
     write (*, '(a,es10.3,a)') '  momentum error (max) ', self%max_momentum_error, '  (P - P0 - M g t, relative)'
     write (*, '(a,es10.3,a)') '  ang. momentum error  ', self%max_angular_momentum_error, &
-      '  (about the centre of mass, relative)'
+      '  (about the centre of mass, relative to max(|L0|, sqrt(2 T I)))'
     write (*, '(a,i0,a,i0,a,i0)') '  rotation iterations  ', self%flight%iterations_total, ' (max per update ', &
       self%flight%iterations_max, '), not converged: ', self%flight%not_converged
     write (*, '(a,i0,a,i0,a,i0,a)') '  contact events       ', self%collisions%stats%events, ' (', &

@@ -17,7 +17,10 @@ landing gap, which the exact bound puts on target + tolerance/2 to round-off; a 
 the wrong height by even one tolerance (1e-7 m) shifts the apex of flight 10 (0.012 m) by
 ~1e-5 relative and fails the test.
 
-Usage: check_bouncing_ball.py EXE DECK WORKDIR"""
+The same with a faceted ball (a 320-face icosphere landing on a face): give its OBJ file,
+and the contact height is the distance from its centre of mass to its bottom face.
+
+Usage: check_bouncing_ball.py EXE DECK WORKDIR [OBJ]"""
 import math
 import os
 import sys
@@ -28,10 +31,16 @@ sys.path.insert(0, os.path.dirname(__file__))
 from ricochet_run import Checks, frames, history, run
 
 exe, deck, work = sys.argv[1:4]
+if len(sys.argv) > 4:
+    nodes = np.array([[float(x) for x in line.split()[1:4]] for line in open(sys.argv[4]) if line.startswith("v ")])
+    # centre of mass: the mesh is symmetric about its centre, so the node mean (1e-18 off)
+    r = float(nodes[:, 2].mean() - np.sort(nodes[:, 2])[:3].mean())
+else:
+    r = 0.1
 out = os.path.join(work, "out")
 proc = run(exe, deck, out)
 c = Checks()
-g, e, r = 9.81, 0.8, 0.1
+g, e = 9.81, 0.8
 delta, tol = 1.0e-6, 1.0e-7
 z_c = r + delta + 0.5 * tol
 h0 = 1.1 - z_c
@@ -40,7 +49,7 @@ impacts = [math.sqrt(2 * h0 / g)]
 for k in range(1, 12):
     impacts.append(impacts[-1] + 2 * e ** k * v0 / g)
 
-worst_apex = worst_time = 0.0
+worst_apex = worst_time = worst_spin = 0.0
 flights_seen = set()
 for t, b in frames(out):
     z = float(b["position"].reshape(-1, 3)[1, 2])
@@ -50,6 +59,7 @@ for t, b in frames(out):
         continue
     if min(abs(t - impacts[k - 1]), abs(t - impacts[k])) < 1e-6:
         continue                                     # at an impact: which flight is ambiguous
+    worst_spin = max(worst_spin, float(np.max(np.abs(b["angular_velocity"].reshape(-1, 3)[1]))))
     apex = z - z_c + vz * vz / (2 * g)
     worst_apex = max(worst_apex, abs(apex - h0 * e ** (2 * k)) / (h0 * e ** (2 * k)))
     # this flight's impacts: z_c = z + vz s - g s^2/2 -> s = (vz -+ sqrt(vz^2 + 2 g (z - z_c)))/g
@@ -60,6 +70,7 @@ for t, b in frames(out):
 c.check(flights_seen == set(range(1, 11)), f"frames in each of the first 10 flights: {sorted(flights_seen)}")
 c.check(worst_apex < 1e-8, f"apex heights h0 e^(2k), k = 1..10, to 1e-8 relative (worst {worst_apex:.2e})")
 c.check(worst_time < 1e-8, f"impact times to 1e-8 relative (worst {worst_time:.2e})")
+c.check(worst_spin < 1e-9, f"no spin from the landings (worst |w| {worst_spin:.1e} rad/s)")
 h = history(out)
 c.check(int(h["events"][-1]) == sum(1 for ti in impacts if ti <= 3.8), f"one event per impact: {int(h['events'][-1])}")
 c.check(float(np.min(h["min_separation"])) >= delta, "smallest separation never below min_separation")

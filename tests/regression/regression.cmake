@@ -36,6 +36,9 @@ if(RICOCHET_USE_HDF5)
     ricochet_python_case(${deck} check_collisions.py ${case} $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${deck})
   endforeach()
+  ricochet_python_case(bouncing_mesh_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
+                       ${PROJECT_SOURCE_DIR}/input/validation/bouncing_mesh_ball.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_bouncing_mesh_ball
+                       ${PROJECT_SOURCE_DIR}/input/meshes/icosphere_face_down.obj)
   ricochet_python_case(free_rotation_deck check_free_rotation.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_free_rotation_deck ${RICOCHET_TEST_DATA}/free_rotation_I123.csv)
   # (runs a few valid decks too, which write output)
