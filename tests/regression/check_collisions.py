@@ -5,6 +5,9 @@
   billiards   16-ball break, e = 1: momentum to 1e-12, kinetic energy to 1e-10 relative
   tunnelling  1 cm cube at 1e4 m/s at a 1 mm plate: never through, gap always positive
   cube_drop   cube dropped flat, e = 0.5: rebounds at e v (apex e^2 h0), no spin, no drift
+  spinning_elastic / spinning_inelastic   two spinning cubes (0.2 m, 1000 kg/m^3) meeting
+              edge on edge (e = 1) or vertex on face (e = 0.5), no gravity: linear and
+              angular momentum conserved to 1e-12; energy kept (e = 1) or lost (e < 1)
 
 Tolerances: impulses are solved exactly (non-negative least squares) and free flight is
 exact between events, so velocities after impacts carry round-off only (~1e-15); the
@@ -79,6 +82,34 @@ elif case == "cube_drop":
     c.check(len(apexes) > 10, "frames during the first rebound")
     worst = max(abs(a - e * e * h0) / (e * e * h0) for a in apexes)
     c.check(worst < 1e-8, f"rebound apex e^2 h0 to 1e-8 relative (worst {worst:.2e})")
+elif case.startswith("spinning"):
+    m = 1000.0 * 0.2 ** 3
+    inertia = m * 0.2 ** 2 / 6.0          # a cube's inertia is isotropic: J w = I w
+
+    def totals(b):
+        x, vv, ww = (b[k].reshape(-1, 3) for k in ("position", "velocity", "angular_velocity"))
+        centre, drift = x.mean(axis=0), vv.mean(axis=0)
+        p = m * vv.sum(axis=0)
+        l = sum(m * np.cross(x[i] - centre, vv[i] - drift) + inertia * ww[i] for i in range(2))
+        ke = 0.5 * m * float((vv * vv).sum()) + 0.5 * inertia * float((ww * ww).sum())
+        return p, l, ke
+    p0, l0, ke0 = totals(fr[0][1])
+    # scales that do not vanish when the totals do (head-on cubes have P = 0)
+    p_scale = m * float(np.abs(fr[0][1]["velocity"]).sum())
+    l_scale = max(float(np.linalg.norm(l0)), math.sqrt(2 * ke0 * 2 * inertia))
+    worst_p = worst_l = 0.0
+    for t, b in fr:
+        p, l, ke = totals(b)
+        worst_p = max(worst_p, float(np.linalg.norm(p - p0)) / p_scale)
+        worst_l = max(worst_l, float(np.linalg.norm(l - l0)) / l_scale)
+    c.check(int(h["events"][-1]) >= 1, f"the cubes collide: {int(h['events'][-1])} events")
+    c.check(worst_p < 1e-12, f"linear momentum conserved to 1e-12 (worst {worst_p:.2e})")
+    c.check(worst_l < 1e-12, f"angular momentum conserved to 1e-12 (worst {worst_l:.2e})")
+    if case == "spinning_elastic":
+        c.check(abs(ke - ke0) / ke0 < 1e-12, f"e = 1: kinetic energy kept ({abs(ke - ke0) / ke0:.2e})")
+    else:
+        c.check(ke < ke0 * (1 - 1e-3), f"e = 0.5: kinetic energy lost ({ke / ke0:.4f} of the initial)")
+    print(f"worst momentum {worst_p:.2e}, angular momentum {worst_l:.2e}, energy ratio {ke / ke0:.15f}")
 else:
     sys.exit(f"unknown case {case}")
 c.finish()

@@ -29,7 +29,8 @@ if(RICOCHET_USE_HDF5)
   ricochet_python_case(bouncing_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/bouncing_ball.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_bouncing_ball)
   foreach(pair cradle:newtons_cradle two_three:cradle_two_into_three billiards:billiards_break
-               tunnelling:tunnelling cube_drop:cube_drop)
+               tunnelling:tunnelling cube_drop:cube_drop spinning_elastic:spinning_cubes_edge
+               spinning_inelastic:spinning_cubes_vertex)
     string(REPLACE ":" ";" pair ${pair})
     list(GET pair 0 case)
     list(GET pair 1 deck)
