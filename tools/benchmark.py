@@ -13,6 +13,7 @@ w0 = (0.01, 5, 0.01) rad/s of tests/data/free_rotation_I123.csv (a thin plate wi
 inertia set exactly through &body inertia).
 """
 import argparse
+import math
 import os
 import platform
 import re
@@ -178,9 +179,101 @@ def throughput(args):
     print(table)
 
 
+def bouncing_ball(args):
+    """Apex of the 10th bounce against the ideal (contact at zero distance) as the minimum
+    separation varies: the error is the price of the separation, the cost barely moves."""
+    g, e, r, z0 = 9.81, 0.8, 0.1, 1.1
+    h_ideal = (z0 - r) * e ** 20
+    t10 = math.sqrt(2 * (z0 - r) / g) * (1 + 2 * sum(e ** k for k in range(1, 10)))
+    results = []
+    for delta in [float(x) for x in args.separations.split(",")]:
+        deck = f"""&run title='bouncing ball', t_end={t10 + e ** 10 * math.sqrt(2 * g * (z0 - r)) / g!r}, dt_max=1e-2, gravity=0,0,-9.81 /
+&contact restitution=0.8, min_separation={delta!r} /
+&output interval={t10 + e ** 10 * math.sqrt(2 * g * (z0 - r)) / g!r} /
+&body name='floor', shape='box', size=2,2,0.2, position=0,0,-0.1, fixed=.true. /
+&body name='ball', shape='sphere', radius=0.1, density=1000, position=0,0,{z0} /
+"""
+        with tempfile.TemporaryDirectory() as work:
+            cpu, wall, out, stdout = run_deck(args.exe, deck, work, args.repeat)
+            import h5py
+            names = sorted(os.listdir(os.path.join(out, "frames")))
+            with h5py.File(os.path.join(out, "frames", names[-1]), "r") as f:
+                z = float(np.array(f["bodies"]["position"])[1, 2])
+                vz = float(np.array(f["bodies"]["velocity"])[1, 2])
+        apex = z + vz * vz / (2 * g) - r
+        err = abs(apex - h_ideal) / h_ideal
+        events = int(re.search(r"contact events\s+(\d+)", stdout).group(1))
+        results.append((delta, cpu, wall, events, err))
+        print(f"min_separation={delta:8.1e} cpu={cpu:6.3f}s events={events} apex-10 error vs ideal={err:9.2e}", flush=True)
+    lines = ["| min_separation [m] | whole process CPU [s] | events | relative error of the 10th apex vs contact at zero distance |",
+             "|---|---|---|---|"]
+    for delta, cpu, wall, events, err in results:
+        lines.append(f"| {delta:.0e} | {cpu:.3f} | {events} | {err:.2e} |")
+    table = "\n".join(lines)
+    with open(os.path.join(args.out_dir, "bench_bouncing_ball.md"), "w") as f:
+        f.write(f"Machine: {machine_line()}. Release build, best of {args.repeat} runs.\n\n{table}\n")
+    print(table)
+
+
+def gas(args):
+    """Dilute gas of spheres or cubes in a closed static box, e = 1, no gravity: cost per
+    simulated second against the number of bodies, and the growth exponent."""
+    rng = np.random.default_rng(7)
+    results = []
+    for shape in ("sphere", "box"):
+        for n in [int(x) for x in args.gas_sizes.split(",")]:
+            side = round(n ** (1 / 3))
+            n = side ** 3
+            edge = 0.1
+            spacing = edge / 0.05 ** (1 / 3)         # volume fraction ~5% of the lattice cell
+            length = side * spacing
+            body = (f"shape='sphere', radius={edge / 2}" if shape == "sphere" else f"shape='box', size={edge},{edge},{edge}")
+            wall = 0.2
+            walls = []
+            for axis in range(3):
+                for sign in (-1, 1):
+                    size = [length + 2 * wall] * 3
+                    size[axis] = wall
+                    pos = [length / 2] * 3
+                    pos[axis] = length / 2 + sign * (length / 2 + wall / 2 + spacing / 4)
+                    walls.append(f"&body name='wall{axis}{sign:+d}', shape='box', size={size[0]},{size[1]},{size[2]}, "
+                                 f"position={pos[0]},{pos[1]},{pos[2]}, fixed=.true. /")
+            t_end = args.gas_time
+            deck = f"""&run title='gas', t_end={t_end!r}, dt_max=1e-2 /
+&contact restitution=1.0 /
+&output write_frames=.false., history_interval={t_end!r} /
+&body name='gas', {body}, density=1000, copies={side},{side},{side}, spacing={spacing},{spacing},{spacing},
+      position={spacing / 2},{spacing / 2},{spacing / 2}, velocity=0,0,0, seed=11, jitter_velocity=1.0,
+      jitter_angle=3.0, jitter_position={0.2 * spacing} /
+""" + "\n".join(walls) + "\n"
+            with tempfile.TemporaryDirectory() as work:
+                t0 = time.perf_counter()
+                cpu, wall_s, out, stdout = run_deck(args.exe, deck, work, 1)
+            events = int(re.search(r"contact events\s+(\d+)", stdout).group(1))
+            sep = re.search(r"smallest separation\s+([0-9.eE+-]+)", stdout)
+            results.append((shape, n, cpu / t_end, events, float(sep.group(1)) if sep else float("nan")))
+            print(f"{shape:6s} n={n:7d} cpu per simulated s={cpu / t_end:9.3f} events={events} "
+                  f"smallest separation={results[-1][4]:.2e}", flush=True)
+    lines = ["| shape | bodies | CPU per simulated second [s] | events | smallest separation [m] |", "|---|---|---|---|---|"]
+    for shape, n, c, ev, sep in results:
+        lines.append(f"| {shape} | {n} | {c:.3f} | {ev} | {sep:.2e} |")
+    for shape in ("sphere", "box"):
+        rs = [r for r in results if r[0] == shape and r[2] > 0]
+        if len(rs) >= 2:
+            slope = np.polyfit(np.log([r[1] for r in rs]), np.log([r[2] for r in rs]), 1)[0]
+            lines.append(f"\n{shape}: cost grows like n^{slope:.2f}")
+    table = "\n".join(lines)
+    with open(os.path.join(args.out_dir, "bench_gas.md"), "w") as f:
+        f.write(f"Machine: {machine_line()}. Release build, one rank, {args.gas_time} s simulated.\n\n{table}\n")
+    print(table)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("case", choices=["free-rotation", "throughput"])
+    p.add_argument("case", choices=["free-rotation", "throughput", "bouncing-ball", "gas"])
+    p.add_argument("--separations", default="1e-3,1e-4,1e-5,1e-6,1e-7,1e-8")
+    p.add_argument("--gas-sizes", default="125,1000,8000")
+    p.add_argument("--gas-time", type=float, default=0.5)
     p.add_argument("--exe", default=os.path.join(ROOT, "build", "app", "ricochet"))
     p.add_argument("--out-dir", default=os.path.join(ROOT, "docs", "bench"))
     p.add_argument("--repeat", type=int, default=3)
@@ -191,7 +284,8 @@ def main():
     p.add_argument("--updates", type=float, default=1e7, help="body updates per run")
     args = p.parse_args()
     os.makedirs(args.out_dir, exist_ok=True)
-    {"free-rotation": free_rotation, "throughput": throughput}[args.case](args)
+    {"free-rotation": free_rotation, "throughput": throughput, "bouncing-ball": bouncing_ball,
+     "gas": gas}[args.case](args)
 
 
 if __name__ == "__main__":
