@@ -16,7 +16,7 @@ negative contact distance seen after any step (PyBullet getContactPoints contact
 MuJoCo data.contact.dist).
 
     .venv/bin/python tools/bench_engines.py                 # all scenes, ~10 min
-    .venv/bin/python tools/bench_engines.py --quick         # ~1 min, N <= 3000
+    .venv/bin/python tools/bench_engines.py --quick         # under a minute, N <= 3000
     .venv/bin/python tools/bench_engines.py --scenes gas --gas-n 100 1000 --engines mujoco
     .venv/bin/python tools/bench_engines.py --dump-initial /tmp/gas   # initial states as CSV
 
@@ -424,7 +424,7 @@ def write_md(path, text):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    ap.add_argument('--quick', action='store_true', help='gas up to N = 3000, three time steps (about a minute)')
+    ap.add_argument('--quick', action='store_true', help='gas up to N = 3000, three time steps (under a minute)')
     ap.add_argument('--scenes', nargs='+', default=['gas', 'ball', 'stack'])
     ap.add_argument('--engines', nargs='+', default=['pybullet', 'mujoco'])
     ap.add_argument('--gas-n', type=int, nargs='+', help='gas body counts')
