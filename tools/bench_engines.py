@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
-"""Reference collision scenes in PyBullet and MuJoCo, for side-by-side comparison with
-ricochet's collision benchmarks (docs/bench/engines.md describes the scenes exactly).
+"""Reference collision scenes (gas, bouncing ball, stack) in PyBullet and MuJoCo.
+
+For side-by-side comparison with ricochet's collision benchmarks; docs/bench/engines.md
+describes the scenes exactly.
 
 Scenes (each takes a body count or a time step list):
   gas    N spheres (r 0.05 m) or cubes (edge 0.1 m), density 1000 kg/m^3, in a closed static
