@@ -1,0 +1,541 @@
+#!/usr/bin/env python3
+"""Reference collision scenes (gas, bouncing ball, stack) in PyBullet and MuJoCo.
+
+For side-by-side comparison with ricochet's collision benchmarks; docs/bench/engines.md
+describes the scenes exactly.
+
+Scenes (each takes a body count or a time step list):
+  gas    N spheres (r 0.05 m) or cubes (edge 0.1 m), density 1000 kg/m^3, in a closed static
+         box sized for a 5% volume fraction, rms speed 1 m/s, no gravity, no friction,
+         restitution 1 (MuJoCo: undamped contact spring, it has no restitution).
+  ball   sphere r 0.1 m, bottom 1 m above a static floor, e = 0.8, g = 9.81: apexes of the
+         first 5 bounces against h0 e^(2k), for time steps 1e-2 .. 1e-4 s.
+  stack  10 cubes (edge 0.1 m) on a floor, friction 0.5, gravity, 10 s: top-cube drift.
+
+Timing: time.perf_counter around the engine's step call only (set-up, contact queries and
+energy bookkeeping are outside); reported per simulated second. Penetration: the most
+negative contact distance seen after any step (PyBullet getContactPoints contactDistance,
+MuJoCo data.contact.dist).
+
+    .venv/bin/python tools/bench_engines.py                 # all scenes, ~10 min
+    .venv/bin/python tools/bench_engines.py --quick         # under a minute, N <= 3000
+    .venv/bin/python tools/bench_engines.py --scenes gas --gas-n 100 1000 --engines mujoco
+    .venv/bin/python tools/bench_engines.py --dump-initial /tmp/gas   # initial states as CSV
+
+Install the engines with `.venv/bin/pip install pybullet mujoco`; a missing engine is
+skipped with a message. Writes docs/bench/engines_<scene>.md and docs/bench/engines.json.
+"""
+import argparse
+import functools
+import json
+import math
+import os
+import platform
+import sys
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+RHO = 1000.0            # density of every moving body [kg/m^3]
+SPHERE_R = 0.05         # gas sphere radius [m]
+CUBE_A = 0.1            # cube edge [m]
+PHI = 0.05              # gas volume fraction
+WALL_T = 0.2            # container wall thickness [m]
+GAP = 0.005             # smallest initial clearance between bodies, and to walls [m]
+SEED = 12345            # numpy default_rng seed of the gas initial state
+G = 9.81                # gravity [m/s^2]
+BALL_R, BALL_H0, BALL_E = 0.1, 1.0, 0.8
+STACK_N, STACK_MU, STACK_T = 10, 0.5, 10.0
+MJ_MAX_ARENA_MB = 4096  # largest MuJoCo arena this script asks for [MB]
+MJ_CONTACT_TIME = 0.02  # MuJoCo contact half-period for the spring standing in for e [s]
+
+
+# ----------------------------------------------------------------------------- scenes
+
+@functools.lru_cache(maxsize=2)
+def gas_setup(n, shape, seed=SEED):
+    """Deterministic gas: box edge L, centres, unit quaternions (w, x, y, z), velocities.
+
+    Box interior [0, L]^3 with L = (n v / PHI)^(1/3), v the body volume. Centres by random
+    sequential addition: candidates uniform in [rex + GAP, L - rex - GAP]^3, accepted when
+    at least 2 rex + GAP from every accepted centre, rex the bounding radius (r for a
+    sphere, a sqrt(3)/2 for a cube, so any orientation is overlap-free). Quaternions:
+    uniform random (normalised 4-d normals, w >= 0), drawn after the positions (cubes
+    only). Velocities: normals / sqrt(3), mean removed, scaled to rms speed 1 m/s exactly.
+    Angular velocities zero.
+    """
+    rng = np.random.default_rng(seed)
+    vol = 4.0 / 3.0 * math.pi * SPHERE_R ** 3 if shape == 'sphere' else CUBE_A ** 3
+    L = (n * vol / PHI) ** (1.0 / 3.0)
+    rex = SPHERE_R if shape == 'sphere' else CUBE_A * math.sqrt(3.0) / 2.0
+    dmin = 2.0 * rex + GAP
+    lo, hi = rex + GAP, L - rex - GAP
+    cell = dmin
+    grid = {}
+    pos = np.empty((n, 3))
+    k = 0
+    while k < n:
+        cand = rng.uniform(lo, hi, size=(1024, 3))
+        for c in cand:
+            ijk = tuple((c // cell).astype(int))
+            ok = True
+            for di in (-1, 0, 1):
+                for dj in (-1, 0, 1):
+                    for dk in (-1, 0, 1):
+                        for j in grid.get((ijk[0] + di, ijk[1] + dj, ijk[2] + dk), ()):
+                            if np.sum((pos[j] - c) ** 2) < dmin * dmin:
+                                ok = False
+                                break
+                        if not ok:
+                            break
+                    if not ok:
+                        break
+                if not ok:
+                    break
+            if ok:
+                pos[k] = c
+                grid.setdefault(ijk, []).append(k)
+                k += 1
+                if k == n:
+                    break
+    quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    if shape == 'cube':
+        quat = rng.normal(size=(n, 4))
+        quat /= np.linalg.norm(quat, axis=1)[:, None]
+        quat[quat[:, 0] < 0] *= -1.0
+    vel = rng.normal(size=(n, 3)) / math.sqrt(3.0)
+    vel -= vel.mean(axis=0)
+    vel /= math.sqrt(np.mean(np.sum(vel ** 2, axis=1)))
+    mass = RHO * vol
+    inertia = (0.4 * mass * SPHERE_R ** 2 if shape == 'sphere' else mass * CUBE_A ** 2 / 6.0)
+    return dict(L=L, pos=pos, quat=quat, vel=vel, mass=mass, inertia=inertia, rex=rex)
+
+
+def energy_momentum(mass, inertia, v, w):
+    """Kinetic energy (translation + rotation; both shapes have isotropic inertia) and
+    total linear momentum."""
+    e = 0.5 * mass * np.sum(v ** 2) + 0.5 * inertia * np.sum(w ** 2)
+    return e, mass * v.sum(axis=0)
+
+
+def apexes(z, k=5):
+    """Heights of the first k local maxima after the first contact, refined by the parabola
+    through the three samples around each (exact for a ballistic sampled trajectory)."""
+    out = []
+    for i in range(1, len(z) - 1):
+        if z[i] > z[i - 1] and z[i] >= z[i + 1] and i > 2:
+            a, b, c = z[i - 1], z[i], z[i + 1]
+            den = a - 2 * b + c
+            out.append(b - (a - c) ** 2 / (8 * den) if den < 0 else b)
+            if len(out) == k:
+                break
+    return out
+
+
+# ----------------------------------------------------------------------------- PyBullet
+
+class Bullet:
+    name = 'pybullet'
+
+    def __init__(self):
+        import pybullet
+        self.p = pybullet
+        self.cid = pybullet.connect(pybullet.DIRECT)
+        self.version = 'pybullet %s (Bullet API %d)' % (
+            _dist_version('pybullet'), pybullet.getAPIVersion())
+        # resetSimulation keeps the last time step: remember the default (1/240 s).
+        self.dt0 = pybullet.getPhysicsEngineParameters(physicsClientId=self.cid)['fixedTimeStep']
+
+    def reset(self, dt=None, gravity=0.0):
+        p = self.p
+        p.resetSimulation(physicsClientId=self.cid)
+        p.setGravity(0, 0, -gravity, physicsClientId=self.cid)
+        p.setTimeStep(self.dt0 if dt is None else dt, physicsClientId=self.cid)
+        return p.getPhysicsEngineParameters(physicsClientId=self.cid)['fixedTimeStep']
+
+    def _dyn(self, b, restitution, friction):
+        # Bullet combines restitution and friction of a pair as the product: callers pass
+        # per-body values whose product is the wanted pair value. No drag in any scene.
+        self.p.changeDynamics(b, -1, restitution=restitution, lateralFriction=friction,
+                              rollingFriction=0.0, spinningFriction=0.0, linearDamping=0.0,
+                              angularDamping=0.0, physicsClientId=self.cid)
+
+    def settings(self):
+        return self.p.getPhysicsEngineParameters(physicsClientId=self.cid)
+
+    def ncontacts(self):
+        return len(self.p.getContactPoints(physicsClientId=self.cid))
+
+    def min_dist(self):
+        cps = self.p.getContactPoints(physicsClientId=self.cid)
+        return min((c[8] for c in cps), default=math.inf)
+
+    def gas(self, n, shape, t_end, budget):
+        p, cid = self.p, self.cid
+        s = gas_setup(n, shape)
+        L = s['L']
+        dt = self.reset()
+        for axis in range(3):
+            for side in (-1, 1):
+                ext = [L / 2 + WALL_T] * 3
+                ext[axis] = WALL_T / 2
+                c = [L / 2] * 3
+                c[axis] = L / 2 + side * (L / 2 + WALL_T / 2)
+                col = p.createCollisionShape(p.GEOM_BOX, halfExtents=ext, physicsClientId=cid)
+                w = p.createMultiBody(0, col, basePosition=c, physicsClientId=cid)
+                self._dyn(w, 1.0, 0.0)
+        if shape == 'sphere':
+            col = p.createCollisionShape(p.GEOM_SPHERE, radius=SPHERE_R, physicsClientId=cid)
+        else:
+            col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[CUBE_A / 2] * 3,
+                                         physicsClientId=cid)
+        ids = []
+        for i0 in range(0, n, 1000):  # batchPositions creates many bodies in one call
+            r = p.createMultiBody(s['mass'], col, batchPositions=s['pos'][i0:i0 + 1000].tolist(),
+                                  useMaximalCoordinates=True, physicsClientId=cid)
+            ids.extend(r if isinstance(r, (list, tuple)) else [r])
+        for i, b in enumerate(ids):
+            q = s['quat'][i]
+            p.resetBasePositionAndOrientation(b, s['pos'][i], [q[1], q[2], q[3], q[0]],
+                                              physicsClientId=cid)
+            p.resetBaseVelocity(b, s['vel'][i], [0, 0, 0], physicsClientId=cid)
+            self._dyn(b, 1.0, 0.0)
+
+        def state():
+            v = np.empty((n, 3)); w = np.empty((n, 3))
+            for i, b in enumerate(ids):
+                v[i], w[i] = p.getBaseVelocity(b, physicsClientId=cid)
+            return v, w
+        return self._run_gas(s, dt, t_end, budget, lambda: p.stepSimulation(physicsClientId=cid),
+                             state, n)
+
+    def _run_gas(self, s, dt, t_end, budget, step, state, n):
+        e0, p0 = energy_momentum(s['mass'], s['inertia'], *state())
+        nsteps = int(round(t_end / dt))
+        every = 1 if n <= 1000 else 10
+        tstep, dmin, k = 0.0, math.inf, 0
+        while k < nsteps:
+            t0 = time.perf_counter()
+            step()
+            tstep += time.perf_counter() - t0
+            k += 1
+            if k % every == 0:
+                dmin = min(dmin, self.min_dist())
+            if k == 20 and tstep / 20 * nsteps > budget:
+                return dict(skipped=True, predicted_s=tstep / 20 * nsteps, dt=dt)
+        e1, p1 = energy_momentum(s['mass'], s['inertia'], *state())
+        # Contacts open at the end: with MuJoCo's soft contacts part of the energy then sits
+        # in the contact springs and is missing from the kinetic energy e1.
+        ncon = self.ncontacts()
+        return dict(dt=dt, steps=nsteps, t_sim=nsteps * dt, wall_step=tstep,
+                    wall_per_sim_s=tstep / (nsteps * dt), max_pen=max(0.0, -dmin),
+                    pen_every=every, e_drift=(e1 - e0) / e0,
+                    p_drift=float(np.linalg.norm(p1 - p0) / (n * s['mass'] * 1.0)),
+                    L=s['L'], contacts_end=ncon)
+
+    def ball(self, dt, t_end):
+        p, cid = self.p, self.cid
+        self.reset(dt, G)
+        floor = p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid),
+                                  physicsClientId=cid)
+        self._dyn(floor, 1.0, 0.0)
+        m = RHO * 4.0 / 3.0 * math.pi * BALL_R ** 3
+        b = p.createMultiBody(m, p.createCollisionShape(p.GEOM_SPHERE, radius=BALL_R,
+                                                        physicsClientId=cid),
+                              basePosition=[0, 0, BALL_R + BALL_H0], useMaximalCoordinates=True,
+                              physicsClientId=cid)
+        self._dyn(b, BALL_E, 0.0)
+        return self._run_ball(dt, t_end, lambda: p.stepSimulation(physicsClientId=cid),
+                              lambda: p.getBasePositionAndOrientation(b, physicsClientId=cid)[0][2])
+
+    def _run_ball(self, dt, t_end, step, z):
+        nsteps = int(round(t_end / dt))
+        zs = np.empty(nsteps)
+        tstep, dmin = 0.0, math.inf
+        for k in range(nsteps):
+            t0 = time.perf_counter()
+            step()
+            tstep += time.perf_counter() - t0
+            zs[k] = z() - BALL_R
+            dmin = min(dmin, self.min_dist())
+        h = apexes(zs)
+        ref = [BALL_H0 * BALL_E ** (2 * k) for k in range(1, 6)]
+        return dict(dt=dt, steps=nsteps, wall_per_sim_s=tstep / (nsteps * dt),
+                    max_pen=max(0.0, -dmin), apex=h,
+                    rel_err=[(a - r) / r for a, r in zip(h, ref)])
+
+    def stack(self, t_end):
+        p, cid = self.p, self.cid
+        dt = self.reset(None, G)
+        mu = math.sqrt(STACK_MU)  # product combination: every pair gets STACK_MU
+        floor = p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid),
+                                  physicsClientId=cid)
+        self._dyn(floor, 0.0, mu)
+        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[CUBE_A / 2] * 3, physicsClientId=cid)
+        ids = []
+        for i in range(STACK_N):
+            b = p.createMultiBody(RHO * CUBE_A ** 3, col,
+                                  basePosition=[0, 0, CUBE_A / 2 + i * CUBE_A],
+                                  useMaximalCoordinates=True, physicsClientId=cid)
+            self._dyn(b, 0.0, mu)
+            ids.append(b)
+        top = lambda: np.array(p.getBasePositionAndOrientation(ids[-1], physicsClientId=cid)[0])
+        return self._run_stack(dt, t_end, lambda: p.stepSimulation(physicsClientId=cid), top)
+
+    def _run_stack(self, dt, t_end, step, top):
+        x0 = top()
+        nsteps = int(round(t_end / dt))
+        tstep, dmin = 0.0, math.inf
+        for k in range(nsteps):
+            t0 = time.perf_counter()
+            step()
+            tstep += time.perf_counter() - t0
+            dmin = min(dmin, self.min_dist())
+        x1 = top()
+        return dict(dt=dt, steps=nsteps, wall_per_sim_s=tstep / (nsteps * dt),
+                    max_pen=max(0.0, -dmin), drift_xy=float(np.hypot(*(x1 - x0)[:2])),
+                    drift_z=float((x1 - x0)[2]))
+
+
+# ----------------------------------------------------------------------------- MuJoCo
+
+def _dist_version(name):
+    try:
+        from importlib.metadata import version
+        return version(name)
+    except Exception:
+        return '?'
+
+
+def _mj_solref(e, tc=MJ_CONTACT_TIME):
+    """Direct-form solref (-stiffness, -damping) of the mass-normalised spring-damper whose
+    half-period is tc and whose restitution is e: w = pi/tc, zeta from e = exp(-zeta pi /
+    sqrt(1 - zeta^2)), k = w^2, b = 2 zeta w. MuJoCo has no restitution coefficient."""
+    w = math.pi / tc
+    le = -math.log(e) if e < 1 else 0.0
+    zeta = le / math.sqrt(math.pi ** 2 + le ** 2)
+    return '%.9g %.9g' % (-w * w, -2 * zeta * w)
+
+
+class Mujoco(Bullet):
+    name = 'mujoco'
+
+    def __init__(self):
+        import mujoco
+        self.mj = mujoco
+        self.version = 'mujoco %s' % mujoco.__version__
+
+    def settings(self):
+        o = self.m.opt
+        return dict(timestep=o.timestep, integrator=int(o.integrator), solver=int(o.solver),
+                    cone=int(o.cone), iterations=int(o.iterations), tolerance=o.tolerance,
+                    ls_iterations=int(o.ls_iterations), noslip_iterations=int(o.noslip_iterations),
+                    o_solref=o.o_solref.tolist(), o_solimp=o.o_solimp.tolist())
+
+    def ncontacts(self):
+        return int(self.d.ncon)
+
+    def min_dist(self):
+        nc = self.d.ncon
+        return float(self.d.contact.dist[:nc].min()) if nc else math.inf
+
+    def _load(self, xml):
+        self.m = self.mj.MjModel.from_xml_string(xml)
+        self.d = self.mj.MjData(self.m)
+        self.mj.mj_forward(self.m, self.d)
+        return self.m.opt.timestep
+
+    def gas(self, n, shape, t_end, budget):
+        mj = self.mj
+        # The broad phase takes ~4 bytes per geom pair from the arena (measured: two 200 MB
+        # blocks at 10^4 bodies), so the arena grows like n^2 (6 bytes per pair asked for).
+        mem_mb = 64 + int(6.0 * (n + 6) ** 2 / 2 ** 20)
+        if mem_mb > MJ_MAX_ARENA_MB:
+            return dict(skipped=True, reason='MuJoCo arena would need %.0f GB (~4 bytes per '
+                        'geom pair in the broad phase)' % (mem_mb / 1024))
+        s = gas_setup(n, shape)
+        L = s['L']
+        walls = []
+        for axis in range(3):
+            for side in (-1, 1):
+                ext = [L / 2 + WALL_T] * 3
+                ext[axis] = WALL_T / 2
+                c = [L / 2] * 3
+                c[axis] = L / 2 + side * (L / 2 + WALL_T / 2)
+                walls.append('<geom type="box" size="%.9g %.9g %.9g" pos="%.9g %.9g %.9g"/>'
+                             % (*ext, *c))
+        g = ('type="sphere" size="%g"' % SPHERE_R if shape == 'sphere'
+             else 'type="box" size="%g %g %g"' % ((CUBE_A / 2,) * 3))
+        bodies = ['<body pos="%.12g %.12g %.12g" quat="%.12g %.12g %.12g %.12g"><freejoint/>'
+                  '<geom %s/></body>' % (*s['pos'][i], *s['quat'][i], g) for i in range(n)]
+        # condim 1: frictionless contacts; the undamped spring stands in for e = 1.
+        xml = ('<mujoco><option gravity="0 0 0"/><size memory="%dM"/>'
+               '<default><geom density="%g" condim="1" solref="%s"/></default>'
+               '<worldbody>%s%s</worldbody></mujoco>'
+               % (mem_mb, RHO, _mj_solref(1.0), ''.join(walls), ''.join(bodies)))
+        dt = self._load(xml)
+        self.d.qvel[:] = np.hstack([s['vel'], np.zeros((n, 3))]).ravel()
+        mj.mj_forward(self.m, self.d)
+
+        def state():
+            qv = self.d.qvel.reshape(n, 6)
+            return qv[:, :3].copy(), qv[:, 3:].copy()
+        m, d = self.m, self.d
+        out = self._run_gas(s, dt, t_end, budget, lambda: mj.mj_step(m, d), state, n)
+        out['mass_model'] = float(self.m.body_mass[1])
+        return out
+
+    def ball(self, dt, t_end):
+        xml = ('<mujoco><option timestep="%g"/><worldbody>'
+               '<geom type="plane" size="5 5 0.1" condim="1" solref="%s"/>'
+               '<body pos="0 0 %g"><freejoint/><geom type="sphere" size="%g" density="%g" '
+               'condim="1" solref="%s"/></body></worldbody></mujoco>'
+               % (dt, _mj_solref(BALL_E), BALL_R + BALL_H0, BALL_R, RHO, _mj_solref(BALL_E)))
+        self._load(xml)
+        m, d = self.m, self.d
+        return self._run_ball(dt, t_end, lambda: self.mj.mj_step(m, d), lambda: d.qpos[2])
+
+    def stack(self, t_end):
+        bodies = ''.join('<body pos="0 0 %.12g"><freejoint/><geom type="box" size="%g %g %g"/>'
+                         '</body>' % (CUBE_A / 2 + i * CUBE_A, *(CUBE_A / 2,) * 3)
+                         for i in range(STACK_N))
+        xml = ('<mujoco><default><geom density="%g" friction="%g 0.005 0.0001"/></default>'
+               '<worldbody><geom type="plane" size="5 5 0.1"/>%s</worldbody></mujoco>'
+               % (RHO, STACK_MU, bodies))
+        dt = self._load(xml)
+        m, d = self.m, self.d
+        top = lambda: d.qpos[7 * (STACK_N - 1):7 * (STACK_N - 1) + 3].copy()
+        return self._run_stack(dt, t_end, lambda: self.mj.mj_step(m, d), top)
+
+
+# ----------------------------------------------------------------------------- driver
+
+def fmt(x, spec='%.3g'):
+    return '-' if x is None else spec % x
+
+
+def write_md(path, text):
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    tmp = path + '.tmp'
+    with open(tmp, 'w') as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--quick', action='store_true', help='gas up to N = 3000, three time steps (under a minute)')
+    ap.add_argument('--scenes', nargs='+', default=['gas', 'ball', 'stack'])
+    ap.add_argument('--engines', nargs='+', default=['pybullet', 'mujoco'])
+    ap.add_argument('--gas-n', type=int, nargs='+', help='gas body counts')
+    ap.add_argument('--gas-shapes', nargs='+', default=['sphere', 'cube'])
+    ap.add_argument('--gas-t', type=float, help='simulated gas time [s]')
+    ap.add_argument('--budget', type=float, default=60.0,
+                    help='skip a gas run (and larger N) predicted to step longer [s]')
+    ap.add_argument('--dts', type=float, nargs='+', help='ball time steps [s]')
+    ap.add_argument('--out', default=os.path.join(ROOT, 'docs', 'bench'))
+    ap.add_argument('--dump-initial', metavar='DIR',
+                    help='write the gas initial states (CSV) for the sizes and exit')
+    a = ap.parse_args()
+    gas_n = a.gas_n or ([100, 1000, 3000] if a.quick else [100, 1000, 3000, 10000, 30000, 100000])
+    gas_t = a.gas_t or 1.0
+    dts = a.dts or ([1e-2, 1e-3, 1e-4] if a.quick else [1e-2, 3e-3, 1e-3, 3e-4, 1e-4])
+    stack_t = STACK_T
+
+    if a.dump_initial:
+        os.makedirs(a.dump_initial, exist_ok=True)
+        for shape in a.gas_shapes:
+            for n in gas_n:
+                s = gas_setup(n, shape)
+                fn = os.path.join(a.dump_initial, 'gas_%s_%d.csv' % (shape, n))
+                hdr = 'box interior [0,%.12g]^3 m, mass %.12g kg; x y z qw qx qy qz vx vy vz' % (
+                    s['L'], s['mass'])
+                np.savetxt(fn, np.hstack([s['pos'], s['quat'], s['vel']]), fmt='%.17g',
+                           delimiter=',', header=hdr)
+                print('wrote', fn)
+        return
+
+    engines = []
+    for e in a.engines:
+        try:
+            engines.append({'pybullet': Bullet, 'mujoco': Mujoco}[e]())
+        except ImportError as err:
+            print('skipping %s: %s (pip install %s)' % (e, err, e), file=sys.stderr)
+    results = dict(machine=platform.platform(), python=platform.python_version(),
+                   engines={e.name: e.version for e in engines}, quick=a.quick, runs={})
+    jpath = os.path.join(a.out, 'engines%s.json' % ('_quick' if a.quick else ''))
+    sfx = '_quick' if a.quick else ''
+    hdr = '| scene | engine | %s | time per simulated second [s] | largest penetration [m] | %s |\n|---|---|---|---|---|---|\n'
+
+    if 'gas' in a.scenes:
+        rows = []
+        for shape in a.gas_shapes:
+            for e in engines:
+                stopped = False
+                for n in gas_n:
+                    if stopped:
+                        r = dict(skipped=True, reason='a smaller N was already skipped')
+                    else:
+                        t0 = time.perf_counter()
+                        r = e.gas(n, shape, gas_t, a.budget)
+                        r['wall_total'] = time.perf_counter() - t0
+                        stopped = r.get('skipped', False)
+                    if not r.get('skipped'):
+                        r['settings'] = e.settings()
+                    results['runs'].setdefault('gas', []).append(dict(engine=e.name, shape=shape, n=n, **r))
+                    if r.get('skipped') and 'reason' in r:
+                        stopped = True
+                    if r.get('skipped'):
+                        line = '| gas %s | %s | %d | skipped: %s | - | - |' % (
+                            shape, e.name, n, r.get('reason') or 'predicted %.0f s of stepping > %g s budget'
+                            % (r['predicted_s'], a.budget))
+                    else:
+                        line = '| gas %s | %s | %d | %s | %s | energy %+.2e, momentum %.2e |' % (
+                            shape, e.name, n, fmt(r['wall_per_sim_s']), fmt(r['max_pen']),
+                            r['e_drift'], r['p_drift'])
+                    print(line, flush=True)
+                    rows.append(line)
+        md = ('Dilute gas, %g s simulated per run, engine default time step. Drift: relative '
+              'kinetic energy change (E1-E0)/E0; momentum |P1-P0| / (N m * 1 m/s).\n\n'
+              % gas_t + hdr % ('N', 'energy / momentum drift') + '\n'.join(rows) + '\n')
+        write_md(os.path.join(a.out, 'engines_gas%s.md' % sfx), md)
+        write_md(jpath, json.dumps(results, indent=1))
+
+    if 'ball' in a.scenes:
+        rows = []
+        for e in engines:
+            for dt in dts:
+                r = e.ball(dt, 3.5)
+                r['settings'] = e.settings()
+                results['runs'].setdefault('ball', []).append(dict(engine=e.name, **r))
+                err = ', '.join('%+.1e' % x for x in r['rel_err'])
+                line = '| ball | %s | %g | %s | %s | %s |' % (
+                    e.name, dt, fmt(r['wall_per_sim_s']), fmt(r['max_pen']),
+                    (err or 'no bounce') + ('' if len(r['rel_err']) == 5 else ' (%d apexes)' % len(r['rel_err'])))
+                print(line, flush=True)
+                rows.append(line)
+        md = ('Bouncing ball: relative errors of the apex heights of bounces 1..5 against '
+              'h0 e^(2k).\n\n' + hdr % ('dt [s]', 'apex errors k = 1..5') + '\n'.join(rows) + '\n')
+        write_md(os.path.join(a.out, 'engines_ball%s.md' % sfx), md)
+        write_md(jpath, json.dumps(results, indent=1))
+
+    if 'stack' in a.scenes:
+        rows = []
+        for e in engines:
+            r = e.stack(stack_t)
+            r['settings'] = e.settings()
+            results['runs'].setdefault('stack', []).append(dict(engine=e.name, t_end=stack_t, **r))
+            line = '| stack | %s | %g | %s | %s | top drift %.2e m horizontal, %+.2e m vertical |' % (
+                e.name, r['dt'], fmt(r['wall_per_sim_s']), fmt(r['max_pen']), r['drift_xy'], r['drift_z'])
+            print(line, flush=True)
+            rows.append(line)
+        md = ('Stack of %d cubes, %g s simulated, engine default time step.\n\n'
+              % (STACK_N, stack_t) + hdr % ('dt [s]', 'top cube drift') + '\n'.join(rows) + '\n')
+        write_md(os.path.join(a.out, 'engines_stack%s.md' % sfx), md)
+        write_md(jpath, json.dumps(results, indent=1))
+
+
+if __name__ == '__main__':
+    main()
