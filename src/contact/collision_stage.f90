@@ -35,6 +35,7 @@ module collision_stage
     integer(i8) :: pair_tests = 0              !< candidate pairs given a closest-point query
     integer(i8) :: contacts = 0                !< contact points handed to the impulse solver
     integer(i8) :: capped = 0                  !< pairs stopped by the iteration cap (safe, short)
+    integer(i8) :: corrections = 0             !< distance corrections (pairs pushed apart)
     real(dp) :: min_separation = huge(1.0_dp)  !< smallest gap ever computed [m]
   end type collision_stats_t
 
@@ -129,7 +130,7 @@ contains
   !> that reach contact at h_event are kept for resolve.
   subroutine stage_earliest_contact(self, bodies, shapes, flight, time_now, h, gravity, config, h_event, err)
     class(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(in), target :: bodies
+    type(bodies_t), intent(inout), target :: bodies
     type(shape_library_t), intent(in), target :: shapes
     type(free_flight_t), intent(inout), target :: flight
     real(dp), intent(in) :: time_now, h, gravity(3)
@@ -141,8 +142,8 @@ contains
     type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
     real(dp) :: r, gap0, normal0(3), g
-    real(dp), allocatable :: pair_time(:)
-    integer :: n, i, j, k
+    real(dp), allocatable :: pair_time(:), pair_gap0(:)
+    integer :: n, i, j, k, attempt
 
     n = bodies%n_owned + bodies%n_ghost
     h_event = h
@@ -170,16 +171,41 @@ contains
     oracle%config = config
     oracle%time_now = time_now
     oracle%gravity = gravity
-    allocate (pair_time(self%n_pairs))
+    allocate (pair_time(self%n_pairs), pair_gap0(self%n_pairs))
     pair_time = huge(1.0_dp)
+    ! Gaps at the step's start first: the distance correction below needs the neighbours'.
+    do k = 1, self%n_pairs
+      i = self%pairs(1, k)
+      j = self%pairs(2, k)
+      pair_gap0(k) = huge(1.0_dp)
+      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                    pair_gap0(k), normal0)
+      self%stats%pair_tests = self%stats%pair_tests + 1
+      self%stats%min_separation = min(self%stats%min_separation, pair_gap0(k))
+    end do
+    ! Distance correction, before any time of contact is computed (it moves bodies): a pair
+    ! in the contact band whose bound says "may approach" only through the turning term
+    ! (Omega r: spinning bodies in contact) while none of its contact points approaches
+    ! would stop the run at zero-length steps; it is opened to two minimum separations.
+    do k = 1, self%n_pairs
+      i = self%pairs(1, k)
+      j = self%pairs(2, k)
+      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      if (pair_gap0(k) > self%target + 0.5_dp*self%tolerance) cycle
+      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                    gap0, normal0)
+      motion = pair_motion(shapes, bodies, i, j, gravity)
+      if (band_rate(motion, normal0) <= self%velocity_tolerance) cycle
+      if (approaching(self, bodies, shapes, i, j, gap0)) cycle
+      attempt = merge(1, 0, separate_pair(self, bodies, shapes, flight, k, pair_gap0))
+    end do
     do k = 1, self%n_pairs
       i = self%pairs(1, k)
       j = self%pairs(2, k)
       if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
       call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
                     gap0, normal0)
-      self%stats%pair_tests = self%stats%pair_tests + 1
-      self%stats%min_separation = min(self%stats%min_separation, gap0)
       motion = pair_motion(shapes, bodies, i, j, gravity)
       oracle%i = i
       oracle%j = j
@@ -207,6 +233,89 @@ contains
       end if
     end do
   end subroutine stage_earliest_contact
+
+  !> Closing rate of the pair's bound at the step's start (as time_of_contact forms it).
+  pure real(dp) function band_rate(motion, n)
+    type(pair_motion_t), intent(in) :: motion
+    real(dp), intent(in) :: n(3)
+    if (motion%convex) then
+      band_rate = dot_product(n, motion%v_a - motion%v_b) + motion%omega_r_a + motion%omega_r_b
+    else
+      band_rate = norm2(motion%v_a - motion%v_b) + motion%omega_r_a + motion%omega_r_b
+    end if
+  end function band_rate
+
+  !> Does any contact point of the pair (features within the contact tolerance) approach?
+  logical function approaching(self, bodies, shapes, i, j, gap)
+    type(collision_stage_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    integer, intent(in) :: i, j
+    real(dp), intent(in) :: gap
+    type(contact_feature_t), allocatable :: features(:)
+    integer :: f, n_features
+    approaching = .true.
+    associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
+      if (si%kind == SHAPE_SPHERE .or. sj%kind == SHAPE_SPHERE) return   ! spheres: the bound is exact
+      call find_contact_features(si%tree, bodies%x(:, i), bodies%q(:, i), sj%tree, bodies%x(:, j), bodies%q(:, j), &
+                                 gap + self%contact_tolerance, features, n_features)
+      do f = 1, n_features
+        if (normal_velocity(bodies, contact_t(a=i, b=j, point=0.5_dp*(features(f)%point_a + features(f)%point_b), &
+                                              normal=features(f)%normal)) < -self%velocity_tolerance) return
+      end do
+    end associate
+    approaching = .false.
+
+  end function approaching
+
+  !> Distance correction: moves the pair apart along its normal until its gap is two
+  !> minimum separations, split by inverse mass (a fixed body does not move), positions
+  !> only (velocities stay: no energy is injected). Refused when either moving body has
+  !> another neighbour closer than the push plus the settling floor: a correction never
+  !> pushes a third body into contact.
+  logical function separate_pair(self, bodies, shapes, flight, k, gaps) result(done)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: k
+    real(dp), intent(inout) :: gaps(:)
+    real(dp) :: gap, normal(3), push, share_i, share_j, w_i, w_j
+    integer :: i, j, l
+    i = self%pairs(1, k)
+    j = self%pairs(2, k)
+    done = .false.
+    call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
+    push = 2.0_dp*self%target - gap
+    if (push <= 0.0_dp) return
+    w_i = bodies%inv_mass(i)
+    w_j = bodies%inv_mass(j)
+    if (w_i + w_j <= 0.0_dp) return
+    share_i = push*w_i/(w_i + w_j)
+    share_j = push*w_j/(w_i + w_j)
+    do l = 1, self%n_pairs
+      if (l == k) cycle
+      if (any(self%pairs(:, l) == i) .and. share_i > 0.0_dp) then
+        if (gaps(l) < share_i + self%target) return
+      end if
+      if (any(self%pairs(:, l) == j) .and. share_j > 0.0_dp) then
+        if (gaps(l) < share_j + self%target) return
+      end if
+    end do
+    bodies%x(:, i) = bodies%x(:, i) - share_i*normal
+    bodies%x(:, j) = bodies%x(:, j) + share_j*normal
+    call flight%release(i)
+    call flight%release(j)
+    ! neighbours' gaps may have shrunk by the push: keep the bookkeeping conservative
+    do l = 1, self%n_pairs
+      if (l == k) cycle
+      if (any(self%pairs(:, l) == i)) gaps(l) = gaps(l) - share_i
+      if (any(self%pairs(:, l) == j)) gaps(l) = gaps(l) - share_j
+    end do
+    gaps(k) = 2.0_dp*self%target
+    self%stats%corrections = self%stats%corrections + 1
+    done = .true.
+  end function separate_pair
 
   !> After the bodies moved to the event: contact points of every pair in contact (the
   !> event pairs, and every candidate pair touching them, so a group is solved together),
