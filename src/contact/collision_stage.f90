@@ -143,6 +143,7 @@ contains
     type(advancement_result_t) :: res
     real(dp) :: r, gap0, normal0(3), g
     real(dp), allocatable :: pair_time(:), pair_gap0(:)
+    logical, allocatable :: receding(:)
     integer :: n, i, j, k, attempt
 
     n = bodies%n_owned + bodies%n_ghost
@@ -184,21 +185,26 @@ contains
       self%stats%pair_tests = self%stats%pair_tests + 1
       self%stats%min_separation = min(self%stats%min_separation, pair_gap0(k))
     end do
-    ! Distance correction, before any time of contact is computed (it moves bodies): a pair
-    ! in the contact band whose bound says "may approach" only through the turning term
-    ! (Omega r: spinning bodies in contact) while none of its contact points approaches
-    ! would stop the run at zero-length steps; it is opened to two minimum separations.
+    ! In the contact band, measure whether any contact point really approaches: the bound's
+    ! turning term (Omega r) says "may approach" for every spinning pair in contact.
+    ! Receding pairs settle towards the floor instead of stopping the run. A receding pair
+    ! already at the floor is opened by the distance correction (it moves bodies, so it
+    ! runs before any time of contact is computed).
+    allocate (receding(self%n_pairs))
+    receding = .false.
     do k = 1, self%n_pairs
       i = self%pairs(1, k)
       j = self%pairs(2, k)
       if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      if (pair_gap0(k) > self%target + 0.5_dp*self%tolerance) cycle
+      if (pair_gap0(k) > self%target + self%tolerance) cycle
       call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
                     gap0, normal0)
       motion = pair_motion(shapes, bodies, i, j, gravity)
       if (band_rate(motion, normal0) <= self%velocity_tolerance) cycle
       if (approaching(self, bodies, shapes, i, j, gap0)) cycle
-      attempt = merge(1, 0, separate_pair(self, bodies, shapes, flight, k, pair_gap0))
+      receding(k) = .true.
+      if (gap0 <= 0.5_dp*self%target + self%tolerance) attempt = merge(1, 0, separate_pair(self, bodies, shapes, flight, &
+                                                                                         k, pair_gap0))
     end do
     do k = 1, self%n_pairs
       i = self%pairs(1, k)
@@ -211,7 +217,7 @@ contains
       oracle%j = j
       oracle%min_gap = huge(1.0_dp)
       call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, 0.5_dp*self%target, &
-                        self%velocity_tolerance, self%max_iterations, res)
+                        self%velocity_tolerance, self%max_iterations, res, receding=receding(k))
       self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
       self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
       if (res%capped) self%stats%capped = self%stats%capped + 1
@@ -268,7 +274,8 @@ contains
 
   end function approaching
 
-  !> Distance correction: moves the pair apart along its normal until its gap is two
+  !> Distance correction (a receding pair that has settled to the floor, where the bound
+  !> would allow no further step): moves the pair apart along its normal until its gap is two
   !> minimum separations, split by inverse mass (a fixed body does not move), positions
   !> only (velocities stay: no energy is injected). Refused when either moving body has
   !> another neighbour closer than the push plus the settling floor: a correction never
@@ -320,12 +327,13 @@ contains
   !> After the bodies moved to the event: contact points of every pair in contact (the
   !> event pairs, and every candidate pair touching them, so a group is solved together),
   !> simultaneous impulses, and the anchors of the bodies whose velocities changed.
-  subroutine stage_resolve(self, bodies, shapes, flight, h_event, err)
+  subroutine stage_resolve(self, bodies, shapes, flight, h_event, h_planned, err)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
     type(shape_library_t), intent(in) :: shapes
     type(free_flight_t), intent(inout) :: flight
-    real(dp), intent(in) :: h_event
+    real(dp), intent(in) :: h_event     !< the step taken [s]
+    real(dp), intent(in) :: h_planned   !< the step before the contact cut it [s]
     type(error_t), intent(inout) :: err
     type(contact_t), allocatable :: contacts(:)
     type(contact_feature_t), allocatable :: features(:)
@@ -335,7 +343,9 @@ contains
 
     if (self%n_events == 0) return
     self%stats%events = self%stats%events + 1
-    if (h_event <= 0.0_dp) then
+    ! Steps of no length, or of a length that cannot move the clock (1e-15 of the step it
+    ! replaced), count towards the stall guard.
+    if (h_event <= 1.0e-15_dp*max(h_planned, tiny(1.0_dp))) then
       self%zero_steps = self%zero_steps + 1
     else
       self%zero_steps = 0

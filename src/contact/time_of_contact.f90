@@ -52,15 +52,17 @@ contains
   !> Advances the pair over [0, step] towards the gap `target` (the minimum separation).
   !> gap0/normal0: the closest points at t = 0 (the caller has them from the broad phase).
   !>
-  !> A pair already within the contact band (gap <= target + tolerance/2):
+  !> A pair already within the contact band (gap <= target + tolerance):
   !>  - approaching faster than velocity_tolerance: contact now (an impulse follows);
   !>  - separating faster than that: it may not come closer than it is, so it flies until
   !>    the bound says it could be back (a bouncing ball returns to the same gap);
+  !>  - the bound says "may approach" but the caller measured that no contact point does
+  !>    (spinning bodies just after an impulse): it may settle towards `floor`, as below;
   !>  - neither (resting, or equal speeds up to round-off, as in a Newton's cradle): it may
   !>    settle by at most the distance to `floor` (< target), so round-off in the relative
   !>    velocity never stalls the run, and no gap ever falls below the floor.
   subroutine advance_pair(oracle, motion, gap0, normal0, step, target, tolerance, floor, velocity_tolerance, &
-                          max_iterations, result)
+                          max_iterations, result, receding)
     class(distance_oracle_t), intent(inout) :: oracle
     type(pair_motion_t), intent(in) :: motion
     real(dp), intent(in) :: gap0, normal0(3), step, target, tolerance
@@ -68,11 +70,17 @@ contains
     real(dp), intent(in) :: velocity_tolerance   !< closing speeds below this count as resting [m/s]
     integer, intent(in) :: max_iterations
     type(advancement_result_t), intent(out) :: result
+    !> The caller measured that no contact point of the pair approaches at t = 0 (only the
+    !> bound's turning term says it may): in the band it then settles instead of stopping.
+    logical, intent(in), optional :: receding
     type(closing_bound_t) :: bound
+    logical :: measured_receding
     real(dp) :: t, gap, normal(3), dt, aim
     ! Aim half a tolerance above the target: an exact bound then lands inside
     ! [target, target + tolerance] with round-off to spare, never just below the target.
     aim = target + 0.5_dp*tolerance
+    measured_receding = .false.
+    if (present(receding)) measured_receding = receding
     t = 0.0_dp
     gap = gap0
     normal = normal0
@@ -82,9 +90,9 @@ contains
         exit
       end if
       bound = closing_bound(motion, normal, t)
-      if (gap > aim) then
+      if (gap > target + tolerance) then
         dt = time_to_close(bound, gap - aim)
-      else if (bound%rate > velocity_tolerance) then
+      else if (bound%rate > velocity_tolerance .and. .not. (measured_receding .and. t == 0.0_dp)) then
         result%contact = .true.       ! in the band and approaching: an event now
         exit
       else if (bound%rate < -velocity_tolerance) then

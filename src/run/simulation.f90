@@ -242,7 +242,7 @@ contains
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
-    real(dp) :: h, t_end, dt_max, target, clock, time_new, h_event
+    real(dp) :: h, t_end, dt_max, target, clock, time_new, h_event, h_planned
     logical :: hits_output, hits_checkpoint
 
     t_end = self%deck%run%t_end
@@ -261,6 +261,7 @@ contains
       call self%collisions%earliest_contact(self%bodies, self%shapes, self%propagator, self%time, h, &
                                             self%deck%run%gravity, self%deck%integrator, h_event, err)
       if (err%failed()) return
+      h_planned = h
       if (h_event < h) then
         h = h_event
         time_new = self%time + h
@@ -276,7 +277,7 @@ contains
       self%step = self%step + 1
       self%last_dt = h
       self%time = time_new
-      call self%collisions%resolve(self%bodies, self%shapes, self%propagator, h, err)
+      call self%collisions%resolve(self%bodies, self%shapes, self%propagator, h, h_planned, err)
       if (err%failed()) return
       hits_output = self%time >= self%next_output
       hits_checkpoint = self%time >= self%next_checkpoint
@@ -442,8 +443,9 @@ contains
       '  (about the centre of mass, relative to max(|L0|, sqrt(2 T I)))'
     write (*, '(a,i0,a,i0,a,i0)') '  rotation iterations  ', self%flight%iterations_total, ' (max per update ', &
       self%flight%iterations_max, '), not converged: ', self%flight%not_converged
-    write (*, '(a,i0,a,i0,a,i0,a)') '  contact events       ', self%collisions%stats%events, ' (', &
-      self%collisions%stats%contacts, ' contact points, ', self%collisions%impulses%groups, ' impulse groups)'
+    write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  contact events       ', self%collisions%stats%events, ' (', &
+      self%collisions%stats%contacts, ' contact points, ', self%collisions%impulses%groups, ' impulse groups, ', &
+      self%collisions%stats%corrections, ' distance corrections)'
     write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', self%collisions%stats%pair_tests, ' pair queries, ', &
       self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, ' capped)'
     if (self%collisions%stats%min_separation < huge(1.0_dp)) then
