@@ -260,9 +260,21 @@ contains
     real(dp), intent(in) :: gap
     type(contact_feature_t), allocatable :: features(:)
     integer :: f, n_features
+    real(dp) :: normal(3), sphere_gap, p(3)
     approaching = .true.
     associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
-      if (si%kind == SHAPE_SPHERE .or. sj%kind == SHAPE_SPHERE) return   ! spheres: the bound is exact
+      if (si%kind == SHAPE_SPHERE .or. sj%kind == SHAPE_SPHERE) then
+        ! one contact point, in the middle of the gap on the normal (as resolve builds it)
+        call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                      sphere_gap, normal)
+        if (si%kind == SHAPE_SPHERE) then
+          p = bodies%x(:, i) + (si%radius + 0.5_dp*sphere_gap)*normal
+        else
+          p = bodies%x(:, j) - (sj%radius + 0.5_dp*sphere_gap)*normal
+        end if
+        approaching = normal_velocity(bodies, contact_t(a=i, b=j, point=p, normal=normal)) < -self%velocity_tolerance
+        return
+      end if
       call find_contact_features(si%tree, bodies%x(:, i), bodies%q(:, i), sj%tree, bodies%x(:, j), bodies%q(:, j), &
                                  gap + self%contact_tolerance, features, n_features)
       do f = 1, n_features
@@ -271,7 +283,6 @@ contains
       end do
     end associate
     approaching = .false.
-
   end function approaching
 
   !> Distance correction (a receding pair that has settled to the floor, where the bound
