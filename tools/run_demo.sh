@@ -9,7 +9,7 @@ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$build"
 deck=${1:-input/demo.nml}
 "$build/app/ricochet" "$deck"
-out=$("$build/app/ricochet" --print-output-dir "$deck")
+out=$(realpath -m "$("$build/app/ricochet" --print-output-dir "$deck")")
 cat <<TXT
 
 Output is in $out:
