@@ -142,9 +142,9 @@ contains
     type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
     real(dp) :: r, gap0, normal0(3), g
-    real(dp), allocatable :: pair_time(:), pair_gap0(:)
-    logical, allocatable :: receding(:)
-    integer :: n, i, j, k, attempt
+    real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
+    logical, allocatable :: receding(:), far(:), moved(:)
+    integer :: n, i, j, k
 
     n = bodies%n_owned + bodies%n_ghost
     h_event = h
@@ -172,16 +172,25 @@ contains
     oracle%config = config
     oracle%time_now = time_now
     oracle%gravity = gravity
-    allocate (pair_time(self%n_pairs), pair_gap0(self%n_pairs))
+    allocate (pair_time(self%n_pairs), pair_gap0(self%n_pairs), pair_normal(3, self%n_pairs), far(self%n_pairs), &
+              moved(n))
     pair_time = huge(1.0_dp)
+    moved = .false.
     ! Gaps at the step's start first: the distance correction below needs the neighbours'.
+    ! Bounding spheres first: a pair whose spheres cannot come within the contact band in
+    ! this step (they do not grow when the bodies turn) costs no closest-point query.
     do k = 1, self%n_pairs
       i = self%pairs(1, k)
       j = self%pairs(2, k)
       pair_gap0(k) = huge(1.0_dp)
+      far(k) = .true.
       if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      pair_gap0(k) = norm2(bodies%x(:, j) - bodies%x(:, i)) - shapes%shapes(bodies%shape_id(i))%bounding_radius - &
+                     shapes%shapes(bodies%shape_id(j))%bounding_radius
+      if (pair_gap0(k) - (margin(i) + margin(j)) > 2.0_dp*(self%target + self%tolerance)) cycle
+      far(k) = .false.
       call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
-                    pair_gap0(k), normal0)
+                    pair_gap0(k), pair_normal(:, k))
       self%stats%pair_tests = self%stats%pair_tests + 1
       self%stats%min_separation = min(self%stats%min_separation, pair_gap0(k))
     end do
@@ -195,23 +204,32 @@ contains
     do k = 1, self%n_pairs
       i = self%pairs(1, k)
       j = self%pairs(2, k)
-      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      if (far(k)) cycle
       if (pair_gap0(k) > self%target + self%tolerance) cycle
-      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
-                    gap0, normal0)
+      gap0 = pair_gap0(k)
+      normal0 = pair_normal(:, k)
       motion = pair_motion(shapes, bodies, i, j, gravity)
       if (band_rate(motion, normal0) <= self%velocity_tolerance) cycle
       if (approaching(self, bodies, shapes, i, j, gap0)) cycle
       receding(k) = .true.
-      if (gap0 <= 0.5_dp*self%target + self%tolerance) attempt = merge(1, 0, separate_pair(self, bodies, shapes, flight, &
-                                                                                         k, pair_gap0))
+      if (gap0 <= 0.5_dp*self%target + self%tolerance) then
+        if (separate_pair(self, bodies, shapes, flight, k, pair_gap0)) then
+          moved(i) = .true.
+          moved(j) = .true.
+        end if
+      end if
     end do
     do k = 1, self%n_pairs
       i = self%pairs(1, k)
       j = self%pairs(2, k)
-      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
-                    gap0, normal0)
+      if (far(k)) cycle
+      if (moved(i) .or. moved(j)) then
+        call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                      gap0, normal0)
+      else
+        gap0 = pair_gap0(k)
+        normal0 = pair_normal(:, k)
+      end if
       motion = pair_motion(shapes, bodies, i, j, gravity)
       oracle%i = i
       oracle%j = j
@@ -369,6 +387,8 @@ contains
       i = self%pairs(1, k)
       j = self%pairs(2, k)
       if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      if (norm2(bodies%x(:, j) - bodies%x(:, i)) - shapes%shapes(bodies%shape_id(i))%bounding_radius - &
+          shapes%shapes(bodies%shape_id(j))%bounding_radius > self%target + self%tolerance + self%contact_tolerance) cycle
       call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
       self%stats%min_separation = min(self%stats%min_separation, gap)
       if (gap > self%target + self%tolerance + self%contact_tolerance) cycle
