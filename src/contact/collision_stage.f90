@@ -185,8 +185,7 @@ contains
       pair_gap0(k) = huge(1.0_dp)
       far(k) = .true.
       if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      pair_gap0(k) = norm2(bodies%x(:, j) - bodies%x(:, i)) - shapes%shapes(bodies%shape_id(i))%bounding_radius - &
-                     shapes%shapes(bodies%shape_id(j))%bounding_radius
+      pair_gap0(k) = gap_lower_bound(shapes, bodies, i, j)
       if (pair_gap0(k) - (margin(i) + margin(j)) > 2.0_dp*(self%target + self%tolerance)) cycle
       far(k) = .false.
       call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
@@ -257,6 +256,32 @@ contains
       end if
     end do
   end subroutine stage_earliest_contact
+
+  !> A cheap lower bound on the gap between two posed bodies: the larger of (centre distance
+  !> minus both bounding radii) and (distance from one body's centre to the other's bounding
+  !> box in that body's principal frame, minus the first one's bounding radius). The second
+  !> matters for walls and floors, whose bounding spheres are huge.
+  pure real(dp) function gap_lower_bound(shapes, bodies, i, j) result(bound)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i, j
+    associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
+      bound = norm2(bodies%x(:, j) - bodies%x(:, i)) - si%bounding_radius - sj%bounding_radius
+      bound = max(bound, point_box_gap(bodies%x(:, i), bodies%x(:, j), bodies%q(:, j), sj%aabb_lower, sj%aabb_upper) &
+                  - si%bounding_radius)
+      bound = max(bound, point_box_gap(bodies%x(:, j), bodies%x(:, i), bodies%q(:, i), si%aabb_lower, si%aabb_upper) &
+                  - sj%bounding_radius)
+    end associate
+  end function gap_lower_bound
+
+  !> Distance from point p to a box given in a body's principal frame (body at x, q).
+  pure real(dp) function point_box_gap(p, x, q, lower, upper)
+    real(dp), intent(in) :: p(3), x(3), q(4), lower(3), upper(3)
+    real(dp) :: local(3), outside(3)
+    local = quat_rotate_inverse(q, p - x)
+    outside = max(lower - local, 0.0_dp, local - upper)
+    point_box_gap = norm2(outside)
+  end function point_box_gap
 
   !> Closing rate of the pair's bound at the step's start (as time_of_contact forms it).
   pure real(dp) function band_rate(motion, n)
@@ -387,8 +412,7 @@ contains
       i = self%pairs(1, k)
       j = self%pairs(2, k)
       if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      if (norm2(bodies%x(:, j) - bodies%x(:, i)) - shapes%shapes(bodies%shape_id(i))%bounding_radius - &
-          shapes%shapes(bodies%shape_id(j))%bounding_radius > self%target + self%tolerance + self%contact_tolerance) cycle
+      if (gap_lower_bound(shapes, bodies, i, j) > self%target + self%tolerance + self%contact_tolerance) cycle
       call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
       self%stats%min_separation = min(self%stats%min_separation, gap)
       if (gap > self%target + self%tolerance + self%contact_tolerance) cycle
