@@ -47,7 +47,7 @@ contains
   end subroutine flight_init
 
   !> Body i's velocity or angular velocity changed (an impulse): re-anchor at its next step.
-  elemental subroutine flight_release(self, i)
+  subroutine flight_release(self, i)
     class(free_flight_t), intent(inout) :: self
     integer, intent(in) :: i
     if (self%exact) self%anchored(i) = .false.
