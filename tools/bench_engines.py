@@ -412,6 +412,70 @@ class Mujoco(Bullet):
 
 # ----------------------------------------------------------------------------- driver
 
+class Ricochet:
+    """ricochet itself, run as a program on a deck that holds exactly the same bodies (one
+    &body per body: position, orientation, velocity) and walls. Timing: the run's own wall
+    time (set-up included, small), per simulated second. Penetration: ricochet never allows
+    any; its smallest separation is reported instead (negative would be a penetration)."""
+    name = 'ricochet'
+
+    def __init__(self):
+        self.exe = os.environ.get('RICOCHET_EXE', os.path.join(ROOT, 'build', 'app', 'ricochet'))
+        if not os.path.exists(self.exe):
+            raise ImportError('no ricochet program at %s (build it first)' % self.exe)
+        self.version = 'ricochet (this repository)'
+
+    def settings(self):
+        return dict(restitution=1.0, min_separation='auto (1e-4 of the smallest body)', rotation='exact')
+
+    def gas(self, n, shape, t_end, budget):
+        import subprocess
+        import tempfile
+        s = gas_setup(n, shape)
+        L = s['L']
+        lines = ["&run title='gas %s %d', t_end=%r, dt_max=1e-2 /" % (shape, n, t_end),
+                 "&contact restitution=1.0 /",
+                 "&output write_frames=.false., history_interval=%r /" % t_end]
+        for axis in range(3):
+            for side in (-1, 1):
+                size = [L + 2 * WALL_T] * 3
+                size[axis] = WALL_T
+                c = [L / 2] * 3
+                c[axis] = L / 2 + side * (L / 2 + WALL_T / 2)
+                lines.append("&body name='wall%d%+d', shape='box', size=%r,%r,%r, position=%r,%r,%r, fixed=.true. /"
+                             % (axis, side, *map(float, size), *map(float, c)))
+        body = ("shape='sphere', radius=%r" % SPHERE_R) if shape == 'sphere' else ("shape='box', size=%r,%r,%r" % ((CUBE_A,) * 3))
+        for k in range(n):
+            q = s['quat'][k]
+            lines.append("&body name='b%d', %s, density=%r, position=%r,%r,%r, orientation=%r,%r,%r,%r, velocity=%r,%r,%r /"
+                         % (k, body, RHO, *map(float, s['pos'][k]), *map(float, q), *map(float, s['vel'][k])))
+        with tempfile.TemporaryDirectory() as work:
+            deck = os.path.join(work, 'gas.nml')
+            with open(deck, 'w') as f:
+                f.write('\n'.join(lines) + '\n')
+            try:
+                proc = subprocess.run([self.exe, deck, '--output-dir', os.path.join(work, 'out')],
+                                      capture_output=True, text=True, timeout=budget)
+            except subprocess.TimeoutExpired:
+                return dict(skipped=True, predicted_s=budget * 2, dt=float('nan'))
+            if proc.returncode != 0:
+                raise RuntimeError(proc.stderr)
+            hist = np.loadtxt(os.path.join(work, 'out', 'history.csv'), delimiter=',', skiprows=1, ndmin=2)
+        wall = float(proc.stdout.split('wall time')[1].split()[0])
+        sep = float(proc.stdout.split('smallest separation')[1].split()[0])
+        e0, e1 = hist[0, 3] + hist[0, 4], hist[-1, 3] + hist[-1, 4]
+        p0, p1 = hist[0, 7:10], hist[-1, 7:10]
+        return dict(dt=float('nan'), steps=int(hist[-1, 2]), t_sim=t_end, wall_step=wall, wall_per_sim_s=wall / t_end,
+                    max_pen=max(0.0, -sep), smallest_separation=sep, e_drift=(e1 - e0) / e0,
+                    p_drift=float(np.linalg.norm(p1 - p0) / (n * s['mass'] * 1.0)), L=L, contacts_end=0)
+
+    def ball(self, dt, t_end):
+        raise NotImplementedError('ricochet runs the bouncing ball as input/validation/bouncing_ball.nml')
+
+    def stack(self, t_end):
+        raise NotImplementedError('resting contact (stacks) is not handled by ricochet yet')
+
+
 def fmt(x, spec='%.3g'):
     return '-' if x is None else spec % x
 
@@ -428,7 +492,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--quick', action='store_true', help='gas up to N = 3000, three time steps (under a minute)')
     ap.add_argument('--scenes', nargs='+', default=['gas', 'ball', 'stack'])
-    ap.add_argument('--engines', nargs='+', default=['pybullet', 'mujoco'])
+    ap.add_argument('--engines', nargs='+', default=['pybullet', 'mujoco'],
+                    help='pybullet, mujoco, ricochet (gas only: the ball is a validation deck, stacks need resting contact)')
     ap.add_argument('--gas-n', type=int, nargs='+', help='gas body counts')
     ap.add_argument('--gas-shapes', nargs='+', default=['sphere', 'cube'])
     ap.add_argument('--gas-t', type=float, help='simulated gas time [s]')
@@ -460,7 +525,7 @@ def main():
     engines = []
     for e in a.engines:
         try:
-            engines.append({'pybullet': Bullet, 'mujoco': Mujoco}[e]())
+            engines.append({'pybullet': Bullet, 'mujoco': Mujoco, 'ricochet': Ricochet}[e]())
         except ImportError as err:
             print('skipping %s: %s (pip install %s)' % (e, err, e), file=sys.stderr)
     results = dict(machine=platform.platform(), python=platform.python_version(),
