@@ -185,7 +185,7 @@ contains
       pair_gap0(k) = huge(1.0_dp)
       far(k) = .true.
       if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      pair_gap0(k) = gap_lower_bound(shapes, bodies, i, j)
+      pair_gap0(k) = gap_lower_bound(shapes, bodies, i, j, margin(i) + margin(j) + 2.0_dp*(self%target + self%tolerance))
       if (pair_gap0(k) - (margin(i) + margin(j)) > 2.0_dp*(self%target + self%tolerance)) cycle
       far(k) = .false.
       call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
@@ -261,12 +261,16 @@ contains
   !> minus both bounding radii) and (distance from one body's centre to the other's bounding
   !> box in that body's principal frame, minus the first one's bounding radius). The second
   !> matters for walls and floors, whose bounding spheres are huge.
-  pure real(dp) function gap_lower_bound(shapes, bodies, i, j) result(bound)
+  pure real(dp) function gap_lower_bound(shapes, bodies, i, j, enough) result(bound)
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: i, j
+    real(dp), intent(in) :: enough   !< a bound above this already settles the question
     associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
       bound = norm2(bodies%x(:, j) - bodies%x(:, i)) - si%bounding_radius - sj%bounding_radius
+      if (bound > enough) return
+      ! the box tests only help where a body is much larger than its partner
+      if (si%kind == SHAPE_SPHERE .and. sj%kind == SHAPE_SPHERE) return
       bound = max(bound, point_box_gap(bodies%x(:, i), bodies%x(:, j), bodies%q(:, j), sj%aabb_lower, sj%aabb_upper) &
                   - si%bounding_radius)
       bound = max(bound, point_box_gap(bodies%x(:, j), bodies%x(:, i), bodies%q(:, i), si%aabb_lower, si%aabb_upper) &
@@ -412,7 +416,8 @@ contains
       i = self%pairs(1, k)
       j = self%pairs(2, k)
       if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      if (gap_lower_bound(shapes, bodies, i, j) > self%target + self%tolerance + self%contact_tolerance) cycle
+      if (gap_lower_bound(shapes, bodies, i, j, self%target + self%tolerance + self%contact_tolerance) > &
+          self%target + self%tolerance + self%contact_tolerance) cycle
       call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
       self%stats%min_separation = min(self%stats%min_separation, gap)
       if (gap > self%target + self%tolerance + self%contact_tolerance) cycle
