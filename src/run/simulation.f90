@@ -101,6 +101,10 @@ contains
     end if
     call self%collisions%init(deck, self%shapes, self%bodies, err)
     if (err%failed()) return
+    ! Until domain decomposition with halo exchange lands, each rank sees only its own bodies.
+    if (par%n_ranks > 1 .and. par%is_root()) write (*, '(a)') &
+      'ricochet: warning: on several ranks, collisions between bodies of different ranks are not '// &
+      'detected yet (bodies are split by id, no halo exchange): run collision scenes on one rank'
 
     if (deck%output%checkpoint_interval > 0.0_dp) then
       self%next_checkpoint = deck%output%checkpoint_interval
