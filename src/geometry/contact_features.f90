@@ -24,7 +24,7 @@ module contact_features
   use error_status, only: error_t, ERR_INPUT
   use skd_tree, only: skd_tree_t, LEAF_SIZE, owns_vertex, owns_edge, sharp_edge
   use closest_primitives, only: closest_point_triangle, closest_segment_segment, REGION_FACE
-  use mesh_distance, only: query_stats_t, relative_pose_t, make_relative_pose, box_gap2, STACK_SIZE, &
+  use mesh_distance, only: query_stats_t, relative_pose_t, make_relative_pose, box_gap2, STACK_SIZE, edge_nodes, &
                            FEATURE_VERTEX_FACE, FEATURE_FACE_VERTEX, FEATURE_EDGE_EDGE
   implicit none
   private
@@ -174,7 +174,7 @@ contains
                 else if (dot_product(n, tree_a%normal(:, sa)) < 0.0_dp) then
                   n = -n
                 end if
-                call add(FEATURE_EDGE_EDGE, edge_pair(tree_a, sa, ka), edge_pair(tree_b, sb, kb), d2, c1, c2, n)
+                call add(FEATURE_EDGE_EDGE, edge_nodes(tree_a, sa, ka), edge_nodes(tree_b, sb, kb), d2, c1, c2, n)
               end do
             end do
           end if
@@ -218,15 +218,6 @@ contains
     end subroutine add
 
   end subroutine find_contact_features
-
-  pure function edge_pair(tree, slot, k) result(e)
-    type(skd_tree_t), intent(in) :: tree
-    integer, intent(in) :: slot, k
-    integer :: e(2), i, j
-    i = tree%tri_nodes(k, slot)
-    j = tree%tri_nodes(mod(k, 3) + 1, slot)
-    e = [min(i, j), max(i, j)]
-  end function edge_pair
 
   !> True when bodies A and B at their poses intersect, touch, or one contains the other.
   logical function bodies_overlap(tree_a, xa, qa, tree_b, xb, qb, stats) result(overlap)

@@ -27,7 +27,7 @@ module mesh_distance
   private
   public :: distance_result_t, query_stats_t, relative_pose_t
   public :: mesh_mesh_distance, mesh_mesh_distance_brute, sphere_sphere_distance, sphere_mesh_distance
-  public :: make_relative_pose, box_gap2, point_box_gap2
+  public :: make_relative_pose, box_gap2, point_box_gap2, edge_nodes
   public :: FEATURE_NONE, FEATURE_VERTEX_FACE, FEATURE_FACE_VERTEX, FEATURE_EDGE_EDGE, &
             FEATURE_SPHERE_SPHERE, FEATURE_SPHERE_FACE
   public :: STACK_SIZE
