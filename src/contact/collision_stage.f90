@@ -21,9 +21,11 @@ module collision_stage
   use bucket_grid, only: bucket_grid_t, choose_box_size
   use advancement_bound, only: angular_speed_bound
   use time_of_contact, only: pair_motion_t, advancement_result_t, distance_oracle_t, advance_pair
-  use mesh_distance, only: distance_result_t, mesh_mesh_distance, sphere_mesh_distance
   use contact_features, only: contact_feature_t, find_contact_features
   use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity
+  use contact_solver, only: pgs_stats_t, solve_contacts_pgs
+  use resting_contact, only: resting_contact_t
+  use pair_geometry, only: pair_gap, gap_lower_bound, pair_contact_points
   use quaternion, only: quat_rotate_inverse
   implicit none
   private
@@ -45,6 +47,8 @@ module collision_stage
     real(dp) :: contact_tolerance = 0.0_dp   !< features within gap + this are contacts [m]
     real(dp) :: velocity_tolerance = 0.0_dp  !< approach speeds below this do not reflect [m/s]
     real(dp) :: restitution = 0.0_dp
+    real(dp) :: friction = 0.0_dp            !< Coulomb mu
+    real(dp) :: rest_speed = 0.0_dp          !< impacts slower than this are inelastic [m/s]
     integer :: max_iterations = 100
     integer :: max_rounds = 100
     real(dp) :: box_size = 0.0_dp            !< grid box edge [m]
@@ -56,8 +60,14 @@ module collision_stage
     integer :: zero_steps = 0                !< consecutive steps of length 0 (stall guard)
     type(collision_stats_t) :: stats
     type(impulse_stats_t) :: impulses
+    type(pgs_stats_t) :: impact_friction      !< friction solves at impacts
+    type(resting_contact_t) :: resting        !< the contact pass of every step
+    type(contact_t), allocatable :: contacts(:)
+    integer(i8), allocatable :: keys(:, :)
+    type(contact_feature_t), allocatable :: features(:)
   contains
     procedure :: init => stage_init
+    procedure :: contact_pass => stage_contact_pass
     procedure :: limit_step => stage_limit_step
     procedure :: earliest_contact => stage_earliest_contact
     procedure :: resolve => stage_resolve
@@ -104,22 +114,30 @@ contains
     self%contact_tolerance = self%target
     self%velocity_tolerance = 1.0e-9_dp
     self%restitution = deck%contact%restitution
+    self%friction = deck%contact%friction
+    ! Below this approach speed an impact is inelastic (docs/contact.md, "Resting contact"):
+    ! the speed gravity adds in two steps, or the speed of a fall through the separation.
+    self%rest_speed = max(2.0_dp*norm2(deck%run%gravity)*deck%run%dt_max, &
+                          sqrt(2.0_dp*norm2(deck%run%gravity)*self%target))
+    self%resting%velocity_tolerance = self%velocity_tolerance
     call choose_box_size(extent, 1.0_dp, self%box_size, err)
     if (err%failed()) return
     call self%grid%init(self%box_size, err)
   end subroutine stage_init
 
-  !> The largest step that keeps every body within one grid box: |v| h + |a| h^2/2 <= box.
-  pure real(dp) function stage_limit_step(self, bodies, gravity, h) result(limited)
+  !> The largest step that keeps every body within one grid box: |v| h + |a| h^2/2 <= box
+  !> (a: gravity, or gravity plus a resting contact's force).
+  pure real(dp) function stage_limit_step(self, bodies, flight, gravity, h) result(limited)
     class(collision_stage_t), intent(in) :: self
     type(bodies_t), intent(in) :: bodies
+    type(free_flight_t), intent(in) :: flight
     real(dp), intent(in) :: gravity(3), h
     real(dp) :: speed, g
     integer :: i
     limited = h
-    g = norm2(gravity)
     do i = 1, bodies%n_owned
       if (bodies%fixed(i)) cycle
+      g = norm2(flight%acceleration(i, gravity))
       speed = norm2(bodies%v(:, i))
       if (speed*limited + 0.5_dp*g*limited*limited > self%box_size) &
         limited = 2.0_dp*self%box_size/(speed + sqrt(speed*speed + 2.0_dp*g*self%box_size))
@@ -141,7 +159,7 @@ contains
     type(pair_oracle_t) :: oracle
     type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
-    real(dp) :: r, gap0, normal0(3), g
+    real(dp) :: r, gap0, normal0(3)
     real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
     logical, allocatable :: receding(:), far(:), moved(:)
     integer :: n, i, j, k
@@ -150,7 +168,6 @@ contains
     h_event = h
     self%n_events = 0
     if (n < 2) return
-    g = norm2(gravity)
     allocate (lower(3, n), upper(3, n), margin(n))
     do i = 1, n
       r = shapes%shapes(bodies%shape_id(i))%bounding_radius
@@ -158,7 +175,7 @@ contains
       upper(:, i) = bodies%x(:, i) + r
       ! The bounding sphere does not move when the body turns: only translation grows it.
       margin(i) = 0.0_dp
-      if (.not. bodies%fixed(i)) margin(i) = norm2(bodies%v(:, i))*h + 0.5_dp*g*h*h
+      if (.not. bodies%fixed(i)) margin(i) = norm2(bodies%v(:, i))*h + 0.5_dp*norm2(flight%acceleration(i, gravity))*h*h
     end do
     call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)
     if (err%failed()) return
@@ -207,7 +224,7 @@ contains
       if (pair_gap0(k) > self%target + self%tolerance) cycle
       gap0 = pair_gap0(k)
       normal0 = pair_normal(:, k)
-      motion = pair_motion(shapes, bodies, i, j, gravity)
+      motion = pair_motion(shapes, bodies, flight, i, j, gravity)
       if (band_rate(motion, normal0) <= self%velocity_tolerance) cycle
       if (approaching(self, bodies, shapes, i, j, gap0)) cycle
       receding(k) = .true.
@@ -229,7 +246,7 @@ contains
         gap0 = pair_gap0(k)
         normal0 = pair_normal(:, k)
       end if
-      motion = pair_motion(shapes, bodies, i, j, gravity)
+      motion = pair_motion(shapes, bodies, flight, i, j, gravity)
       oracle%i = i
       oracle%j = j
       oracle%min_gap = huge(1.0_dp)
@@ -256,36 +273,6 @@ contains
       end if
     end do
   end subroutine stage_earliest_contact
-
-  !> A cheap lower bound on the gap between two posed bodies: the larger of (centre distance
-  !> minus both bounding radii) and (distance from one body's centre to the other's bounding
-  !> box in that body's principal frame, minus the first one's bounding radius). The second
-  !> matters for walls and floors, whose bounding spheres are huge.
-  pure real(dp) function gap_lower_bound(shapes, bodies, i, j, enough) result(bound)
-    type(shape_library_t), intent(in) :: shapes
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(in) :: i, j
-    real(dp), intent(in) :: enough   !< a bound above this already settles the question
-    associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
-      bound = norm2(bodies%x(:, j) - bodies%x(:, i)) - si%bounding_radius - sj%bounding_radius
-      if (bound > enough) return
-      ! the box tests only help where a body is much larger than its partner
-      if (si%kind == SHAPE_SPHERE .and. sj%kind == SHAPE_SPHERE) return
-      bound = max(bound, point_box_gap(bodies%x(:, i), bodies%x(:, j), bodies%q(:, j), sj%aabb_lower, sj%aabb_upper) &
-                  - si%bounding_radius)
-      bound = max(bound, point_box_gap(bodies%x(:, j), bodies%x(:, i), bodies%q(:, i), si%aabb_lower, si%aabb_upper) &
-                  - sj%bounding_radius)
-    end associate
-  end function gap_lower_bound
-
-  !> Distance from point p to a box given in a body's principal frame (body at x, q).
-  pure real(dp) function point_box_gap(p, x, q, lower, upper)
-    real(dp), intent(in) :: p(3), x(3), q(4), lower(3), upper(3)
-    real(dp) :: local(3), outside(3)
-    local = quat_rotate_inverse(q, p - x)
-    outside = max(lower - local, 0.0_dp, local - upper)
-    point_box_gap = norm2(outside)
-  end function point_box_gap
 
   !> Closing rate of the pair's bound at the step's start (as time_of_contact forms it).
   pure real(dp) function band_rate(motion, n)
@@ -382,9 +369,93 @@ contains
     done = .true.
   end function separate_pair
 
+  !> Contact points of every candidate pair within the contact band, gathered into
+  !> self%contacts(1:n_contacts) with their keys (restitution and friction of the pair).
+  subroutine gather_contacts(self, bodies, shapes, n_contacts)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    integer, intent(out) :: n_contacts
+    integer :: k, i, j, first
+    real(dp) :: gap, normal(3), band
+    n_contacts = 0
+    band = self%target + self%tolerance + self%contact_tolerance
+    do k = 1, self%n_pairs
+      i = self%pairs(1, k)
+      j = self%pairs(2, k)
+      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      if (gap_lower_bound(shapes, bodies, i, j, band) > band) cycle
+      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
+      self%stats%min_separation = min(self%stats%min_separation, gap)
+      if (gap > band) cycle
+      first = n_contacts + 1
+      call pair_contact_points(shapes, bodies, i, j, gap, normal, self%contact_tolerance, self%contacts, self%keys, &
+                               n_contacts, self%features)
+      self%contacts(first:n_contacts)%restitution = self%restitution
+      self%contacts(first:n_contacts)%friction = self%friction
+    end do
+  end subroutine gather_contacts
+
+  !> The contact pass at the start of a step of h [s] (resting_contact): candidate pairs
+  !> from one ring of the grid, contact points within the band, and those not approaching
+  !> faster than the rest speed solved as persistent contacts (e = 0, friction). Sets the
+  !> loads the propagator applies over the step.
+  subroutine stage_contact_pass(self, bodies, shapes, flight, h, gravity, err)
+    class(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    real(dp), intent(in) :: h, gravity(3)
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: lower(:, :), upper(:, :)
+    logical, allocatable :: persistent(:)
+    integer :: n, i, n_contacts, c, kept
+    real(dp) :: r
+    n = bodies%n_owned + bodies%n_ghost
+    n_contacts = 0
+    if (n >= 2 .and. h > 0.0_dp) then
+      allocate (lower(3, n), upper(3, n))
+      do i = 1, n
+        r = shapes%shapes(bodies%shape_id(i))%bounding_radius
+        lower(:, i) = bodies%x(:, i) - r
+        upper(:, i) = bodies%x(:, i) + r
+      end do
+      call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)
+      if (err%failed()) return
+      call self%grid%candidate_pairs(1, [self%target + self%tolerance + self%contact_tolerance], self%pairs, &
+                                     self%n_pairs, err, n_owned=bodies%n_owned)
+      if (err%failed()) return
+      call gather_contacts(self, bodies, shapes, n_contacts)
+    end if
+    ! Persistent: not approaching faster than the rest speed (faster ones are impacts, left
+    ! to the event with their restitution).
+    kept = 0
+    if (n_contacts > 0) then
+      allocate (persistent(n_contacts))
+      do c = 1, n_contacts
+        persistent(c) = normal_velocity(bodies, self%contacts(c)) >= -self%rest_speed
+      end do
+      kept = count(persistent)
+      if (kept < n_contacts) then
+        self%contacts(1:kept) = pack(self%contacts(1:n_contacts), persistent)
+        self%keys(:, 1:kept) = self%keys(:, pack([(c, c=1, n_contacts)], persistent))
+      end if
+    end if
+    if (kept > 0 .and. h > 0.0_dp) then
+      call self%resting%solve(bodies, flight, self%contacts(1:kept), self%keys(:, 1:kept), kept, h, gravity, err)
+    else
+      do i = 1, bodies%n_owned
+        call flight%clear_load(i)
+      end do
+    end if
+  end subroutine stage_contact_pass
+
   !> After the bodies moved to the event: contact points of every pair in contact (the
   !> event pairs, and every candidate pair touching them, so a group is solved together),
   !> simultaneous impulses, and the anchors of the bodies whose velocities changed.
+  !> Contacts approaching slower than the rest speed are inelastic; with friction, the
+  !> normal impulses bound the friction impulses of the same impact (Coulomb's cone), and if
+  !> friction makes a contact approach again the inelastic projection closes the loop.
   subroutine stage_resolve(self, bodies, shapes, flight, h_event, h_planned, err)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
@@ -393,11 +464,8 @@ contains
     real(dp), intent(in) :: h_event     !< the step taken [s]
     real(dp), intent(in) :: h_planned   !< the step before the contact cut it [s]
     type(error_t), intent(inout) :: err
-    type(contact_t), allocatable :: contacts(:)
-    type(contact_feature_t), allocatable :: features(:)
-    integer :: k, f, i, j, n_contacts, n_features
-    real(dp) :: gap, normal(3), v_before(6)
-    logical :: changed
+    integer :: i, c, n_contacts
+    real(dp), allocatable :: v_old(:, :), w_old(:, :), normal_impulse(:), friction_impulse(:, :)
 
     if (self%n_events == 0) return
     self%stats%events = self%stats%events + 1
@@ -408,102 +476,56 @@ contains
     else
       self%zero_steps = 0
     end if
-    allocate (contacts(16))
-    n_contacts = 0
     ! Every candidate pair within the contact band joins, so touching neighbours (a cradle,
     ! a box on four corners) are solved in one simultaneous group.
-    do k = 1, self%n_pairs
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      if (gap_lower_bound(shapes, bodies, i, j, self%target + self%tolerance + self%contact_tolerance) > &
-          self%target + self%tolerance + self%contact_tolerance) cycle
-      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
-      self%stats%min_separation = min(self%stats%min_separation, gap)
-      if (gap > self%target + self%tolerance + self%contact_tolerance) cycle
-      associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
-        if (si%kind == SHAPE_SPHERE .or. sj%kind == SHAPE_SPHERE) then
-          call add_contact(i, j, bodies%x(:, i), normal, gap, si%kind == SHAPE_SPHERE, si%radius)
-        else
-          call find_contact_features(si%tree, bodies%x(:, i), bodies%q(:, i), sj%tree, bodies%x(:, j), bodies%q(:, j), &
-                                     gap + self%contact_tolerance, features, n_features)
-          do f = 1, n_features
-            call push(contact_t(a=i, b=j, point=0.5_dp*(features(f)%point_a + features(f)%point_b), &
-                                normal=features(f)%normal, restitution=self%restitution))
-          end do
-        end if
-      end associate
-    end do
+    call gather_contacts(self, bodies, shapes, n_contacts)
     if (n_contacts == 0) return
     self%stats%contacts = self%stats%contacts + n_contacts
-    block
-      real(dp), allocatable :: v_old(:, :), w_old(:, :)
-      v_old = bodies%v
-      w_old = bodies%w
-      call resolve_impacts(bodies, contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, self%impulses, err)
-      if (err%failed()) return
-      changed = .false.
-      do i = 1, bodies%n_owned
-        v_before = [v_old(:, i), w_old(:, i)]
-        if (any(v_before /= [bodies%v(:, i), bodies%w(:, i)])) then
-          call flight%release(i)
-          changed = .true.
-        end if
-      end do
-    end block
-    ! A step of length zero that changed nothing cannot be followed by another: that is a
-    ! body resting under a steady load, which needs the resting-contact treatment.
+    do c = 1, n_contacts
+      if (normal_velocity(bodies, self%contacts(c)) > -self%rest_speed) self%contacts(c)%restitution = 0.0_dp
+    end do
+    v_old = bodies%v
+    w_old = bodies%w
+    allocate (normal_impulse(n_contacts))
+    call resolve_impacts(bodies, self%contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, &
+                         self%impulses, err, normal_impulse)
+    if (err%failed()) return
+    if (any(self%contacts(1:n_contacts)%friction > 0.0_dp) .and. any(normal_impulse > 0.0_dp)) then
+      allocate (friction_impulse(3, n_contacts))
+      friction_impulse = 0.0_dp
+      call solve_contacts_pgs(bodies, self%contacts(1:n_contacts), friction_impulse, self%resting%tolerance, &
+                              self%resting%max_sweeps, self%impact_friction, fixed_normal=normal_impulse)
+      if (any([(normal_velocity(bodies, self%contacts(c)) < -self%velocity_tolerance, c=1, n_contacts)])) then
+        self%contacts(1:n_contacts)%restitution = 0.0_dp
+        call resolve_impacts(bodies, self%contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, &
+                             self%impulses, err)
+        if (err%failed()) return
+      end if
+    end if
+    do i = 1, bodies%n_owned
+      if (any(v_old(:, i) /= bodies%v(:, i)) .or. any(w_old(:, i) /= bodies%w(:, i))) call flight%release(i)
+    end do
+    ! A step of length zero that changed nothing cannot be followed by another.
     if (self%zero_steps > 1000) then
       call err%set(ERR_NUMERIC, 'collision loop stalled: 1000 steps of zero length at a persistent contact '// &
-                   '(bodies resting on each other under a load); resting contact is not handled yet')
+                   '(smallest separation '//str(self%stats%min_separation)//' m)')
     end if
-
-  contains
-
-    subroutine push(c)
-      type(contact_t), intent(in) :: c
-      type(contact_t), allocatable :: grown(:)
-      if (n_contacts == size(contacts)) then
-        allocate (grown(2*size(contacts)))
-        grown(1:n_contacts) = contacts(1:n_contacts)
-        call move_alloc(grown, contacts)
-      end if
-      n_contacts = n_contacts + 1
-      contacts(n_contacts) = c
-    end subroutine push
-
-    !> One contact point for a pair with a sphere: the middle of the gap on the line of the
-    !> normal, starting from the sphere's surface (or from the mesh when b is the sphere).
-    subroutine add_contact(a, b, xa, n, gap_ab, a_is_sphere, radius_a)
-      integer, intent(in) :: a, b
-      real(dp), intent(in) :: xa(3), n(3), gap_ab, radius_a
-      logical, intent(in) :: a_is_sphere
-      real(dp) :: p(3), rb
-      if (a_is_sphere) then
-        p = xa + (radius_a + 0.5_dp*gap_ab)*n
-      else
-        ! b is the sphere: its surface point towards a, then half the gap back
-        rb = shapes%shapes(bodies%shape_id(b))%radius
-        p = bodies%x(:, b) - (rb + 0.5_dp*gap_ab)*n
-      end if
-      call push(contact_t(a=a, b=b, point=p, normal=n, restitution=self%restitution))
-    end subroutine add_contact
-
   end subroutine stage_resolve
 
   !> The bound's inputs: velocities and accelerations at the step's start and angular
   !> speed bound times the largest radius (zero for analytic spheres: turning moves none of
   !> their surface).
-  function pair_motion(shapes, bodies, i, j, gravity) result(motion)
+  function pair_motion(shapes, bodies, flight, i, j, gravity) result(motion)
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
+    type(free_flight_t), intent(in) :: flight
     integer, intent(in) :: i, j
     real(dp), intent(in) :: gravity(3)
     type(pair_motion_t) :: motion
     motion%v_a = bodies%v(:, i)
     motion%v_b = bodies%v(:, j)
-    motion%a_a = merge(0.0_dp, 1.0_dp, bodies%fixed(i))*gravity
-    motion%a_b = merge(0.0_dp, 1.0_dp, bodies%fixed(j))*gravity
+    motion%a_a = merge(0.0_dp, 1.0_dp, bodies%fixed(i))*flight%acceleration(i, gravity)
+    motion%a_b = merge(0.0_dp, 1.0_dp, bodies%fixed(j))*flight%acceleration(j, gravity)
     motion%omega_r_a = omega_r(i)
     motion%omega_r_b = omega_r(j)
     motion%convex = shapes%shapes(bodies%shape_id(i))%convex .and. shapes%shapes(bodies%shape_id(j))%convex
@@ -519,36 +541,6 @@ contains
       end if
     end function omega_r
   end function pair_motion
-
-  !> Gap and unit normal (from i to j) between two posed bodies.
-  subroutine pair_gap(shapes, bodies, i, j, xi, qi, xj, qj, gap, normal)
-    type(shape_library_t), intent(in) :: shapes
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(in) :: i, j
-    real(dp), intent(in) :: xi(3), qi(4), xj(3), qj(4)
-    real(dp), intent(out) :: gap, normal(3)
-    type(distance_result_t) :: d
-    real(dp) :: between(3)
-    associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
-      if (si%kind == SHAPE_SPHERE .and. sj%kind == SHAPE_SPHERE) then
-        between = xj - xi
-        gap = norm2(between) - si%radius - sj%radius
-        normal = between/norm2(between)
-      else if (si%kind == SHAPE_SPHERE) then
-        call sphere_mesh_distance(xi, si%radius, sj%tree, xj, qj, d)
-        gap = d%distance
-        normal = d%normal
-      else if (sj%kind == SHAPE_SPHERE) then
-        call sphere_mesh_distance(xj, sj%radius, si%tree, xi, qi, d)
-        gap = d%distance
-        normal = -d%normal
-      else
-        call mesh_mesh_distance(si%tree, xi, qi, sj%tree, xj, qj, d)
-        gap = d%distance
-        normal = d%normal
-      end if
-    end associate
-  end subroutine pair_gap
 
   subroutine oracle_gap_at(self, t, gap, normal)
     class(pair_oracle_t), intent(inout) :: self

@@ -34,7 +34,9 @@ module impulse_solver
     integer :: b = 0
     real(dp) :: point(3) = 0.0_dp     !< world contact point [m]
     real(dp) :: normal(3) = 0.0_dp    !< unit normal from a to b
-    real(dp) :: restitution = 0.0_dp  !< e of this pair (the group uses the smallest)
+    real(dp) :: restitution = 0.0_dp  !< e of this pair (0 below the rest speed; the group uses
+                                      !< the smallest over its approaching contacts)
+    real(dp) :: friction = 0.0_dp     !< Coulomb mu of this pair
   end type contact_t
 
   type :: impulse_stats_t
@@ -68,13 +70,17 @@ contains
   !> Applies the impulses of every contact group to bodies%v and bodies%w.
   !> velocity_tolerance [m/s]: approach speeds below it count as resting (no reflection);
   !> max_rounds caps the generalized-reflection loop (then the group is made inelastic).
-  subroutine resolve_impacts(bodies, contacts, velocity_tolerance, max_rounds, stats, err)
+  !> normal_impulse(i), when present: the normal impulse applied at contact i [N s].
+  subroutine resolve_impacts(bodies, contacts, velocity_tolerance, max_rounds, stats, err, normal_impulse)
     type(bodies_t), intent(inout) :: bodies
     type(contact_t), intent(in) :: contacts(:)
     real(dp), intent(in) :: velocity_tolerance
     integer, intent(in) :: max_rounds
     type(impulse_stats_t), intent(inout) :: stats
     type(error_t), intent(inout) :: err
+    real(dp), intent(out), optional :: normal_impulse(:)
+    real(dp), allocatable :: group_impulse(:)
+    integer, allocatable :: in_group(:)
     integer, allocatable :: parent(:), group_of_contact(:)
     integer :: i, root, n_bodies, g
     logical, allocatable :: done(:)
@@ -95,6 +101,7 @@ contains
       end if
     end do
     done = .false.
+    if (present(normal_impulse)) normal_impulse = 0.0_dp
     do i = 1, size(contacts)
       if (done(i)) cycle
       root = group_of_contact(i)
@@ -102,9 +109,12 @@ contains
         done(i) = .true.
         cycle
       end if
-      call solve_group(bodies, pack(contacts, group_of_contact == root), velocity_tolerance, max_rounds, &
-                       stats, err)
+      in_group = pack([(g, g=1, size(contacts))], group_of_contact == root)
+      allocate (group_impulse(size(in_group)))
+      call solve_group(bodies, contacts(in_group), velocity_tolerance, max_rounds, stats, group_impulse, err)
       if (err%failed()) return
+      if (present(normal_impulse)) normal_impulse(in_group) = group_impulse
+      deallocate (group_impulse)
       do g = i, size(contacts)
         if (group_of_contact(g) == root) done(g) = .true.
       end do
@@ -139,13 +149,16 @@ contains
 
   !> One connected group: builds the scaled contact matrix E, solves the inelastic
   !> projection and the elastic reflections, blends them with e.
-  subroutine solve_group(bodies, contacts, velocity_tolerance, max_rounds, stats, err)
+  subroutine solve_group(bodies, contacts, velocity_tolerance, max_rounds, stats, impulse, err)
     type(bodies_t), intent(inout) :: bodies
     type(contact_t), intent(in) :: contacts(:)
     real(dp), intent(in) :: velocity_tolerance
     integer, intent(in) :: max_rounds
     type(impulse_stats_t), intent(inout) :: stats
+    real(dp), intent(out) :: impulse(:)   !< normal impulse of each contact [N s]
     type(error_t), intent(inout) :: err
+    real(dp), allocatable :: lambda_elastic(:)
+    integer, allocatable :: active(:)
     integer, allocatable :: members(:), slot(:)
     real(dp), allocatable :: e_matrix(:, :), vt0(:), vt_inelastic(:), vt_elastic(:), lambda(:), u(:)
     logical, allocatable :: approaching(:)
@@ -153,7 +166,6 @@ contains
     real(dp) :: restitution
 
     m = size(contacts)
-    restitution = minval(contacts%restitution)
     ! Local numbering of the moving bodies of the group.
     allocate (slot(bodies%n_owned + bodies%n_ghost), members(2*m))
     slot = 0
@@ -177,8 +189,15 @@ contains
       end associate
     end do
 
+    ! The group's e: the smallest over the contacts that approach (resting contacts of the
+    ! group, neither approaching nor separating, do not make a bouncing impact inelastic).
+    u = matmul(transpose(e_matrix), vt0)
+    restitution = 0.0_dp
+    if (any(u < -velocity_tolerance)) restitution = minval(contacts%restitution, mask=u < -velocity_tolerance)
+
     ! Inelastic projection over all contacts of the group.
-    allocate (lambda(m))
+    allocate (lambda(m), lambda_elastic(m))
+    lambda_elastic = 0.0_dp
     call solve_nnls(e_matrix, -vt0, lambda, iterations, err)
     if (err%failed()) return
     stats%nnls_iterations = stats%nnls_iterations + iterations
@@ -195,23 +214,27 @@ contains
         if (round > max_rounds) then
           stats%cap_hits = stats%cap_hits + 1
           vt_elastic = vt_inelastic
+          lambda_elastic = lambda
           exit
         end if
         stats%reflection_rounds = stats%reflection_rounds + 1
         stats%max_rounds_seen = max(stats%max_rounds_seen, round)
         block
           real(dp), allocatable :: sub(:, :), sub_lambda(:)
-          sub = e_matrix(:, pack([(i, i=1, m)], approaching))
+          active = pack([(i, i=1, m)], approaching)
+          sub = e_matrix(:, active)
           allocate (sub_lambda(size(sub, 2)))
           call solve_nnls(sub, -2.0_dp*vt_elastic, sub_lambda, iterations, err)
           if (err%failed()) return
           stats%nnls_iterations = stats%nnls_iterations + iterations
           vt_elastic = vt_elastic + matmul(sub, sub_lambda)
+          lambda_elastic(active) = lambda_elastic(active) + sub_lambda
         end block
       end do
     end if
 
     vt0 = (1.0_dp - restitution)*vt_inelastic + restitution*vt_elastic
+    impulse = (1.0_dp - restitution)*lambda + restitution*lambda_elastic
     do k = 1, n_members
       call set_scaled_velocity(bodies, members(k), vt0(6*k - 5:6*k))
     end do

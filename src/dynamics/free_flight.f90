@@ -24,7 +24,14 @@ module free_flight
     real(dp), allocatable :: t0(:)                 !< anchor time [s]
     real(dp), allocatable :: x0(:, :), v0(:, :)    !< centre of mass and its velocity at t0
     logical, allocatable :: anchored(:)
+    !> Bodies held by resting contacts this step move with a constant acceleration other
+    !> than gravity (gravity plus the contact force the contact solve found): accel(:, i).
+    logical, allocatable :: loaded(:)
+    real(dp), allocatable :: accel(:, :)           !< [m/s^2] where loaded
   contains
+    procedure :: set_load => flight_set_load
+    procedure :: clear_load => flight_clear_load
+    procedure :: acceleration => flight_acceleration
     procedure :: init => flight_init
     procedure :: release => flight_release
     procedure :: release_all => flight_release_all
@@ -39,6 +46,10 @@ contains
     integer, intent(in) :: n_bodies
     type(integrator_config_t), intent(in) :: config
     self%exact = config%rotation == ROTATION_EXACT
+    if (allocated(self%loaded)) deallocate (self%loaded, self%accel)
+    allocate (self%loaded(n_bodies), self%accel(3, n_bodies))
+    self%loaded = .false.
+    self%accel = 0.0_dp
     if (.not. self%exact) return
     if (allocated(self%rotors)) deallocate (self%rotors, self%t0, self%x0, self%v0, self%anchored)
     allocate (self%rotors(n_bodies), self%t0(n_bodies), self%x0(3, n_bodies), self%v0(3, n_bodies), &
@@ -52,6 +63,41 @@ contains
     integer, intent(in) :: i
     if (self%exact) self%anchored(i) = .false.
   end subroutine flight_release
+
+  !> Body i moves with the constant acceleration a [m/s^2] from now until the load changes.
+  subroutine flight_set_load(self, i, a)
+    class(free_flight_t), intent(inout) :: self
+    integer, intent(in) :: i
+    real(dp), intent(in) :: a(3)
+    if (self%loaded(i)) then
+      if (all(self%accel(:, i) == a)) return
+    end if
+    self%loaded(i) = .true.
+    self%accel(:, i) = a
+    call self%release(i)
+  end subroutine flight_set_load
+
+  !> Body i is back under gravity alone.
+  subroutine flight_clear_load(self, i)
+    class(free_flight_t), intent(inout) :: self
+    integer, intent(in) :: i
+    if (.not. self%loaded(i)) return
+    self%loaded(i) = .false.
+    call self%release(i)
+  end subroutine flight_clear_load
+
+  !> The acceleration body i moves with [m/s^2].
+  pure function flight_acceleration(self, i, gravity) result(a)
+    class(free_flight_t), intent(in) :: self
+    integer, intent(in) :: i
+    real(dp), intent(in) :: gravity(3)
+    real(dp) :: a(3)
+    if (self%loaded(i)) then
+      a = self%accel(:, i)
+    else
+      a = gravity
+    end if
+  end function flight_acceleration
 
   subroutine flight_release_all(self)
     class(free_flight_t), intent(inout) :: self
@@ -80,13 +126,13 @@ contains
     if (self%exact) then
       if (.not. self%anchored(i)) call anchor(self, bodies, i, time_now)
       dt = (time_now + tau) - self%t0(i)
-      x = self%x0(:, i) + self%v0(:, i)*dt + (0.5_dp*dt*dt)*gravity
+      x = self%x0(:, i) + self%v0(:, i)*dt + (0.5_dp*dt*dt)*self%acceleration(i, gravity)
       call self%rotors(i)%evaluate(dt, q, w)
     else
       x = bodies%x(:, i)
       v = bodies%v(:, i)
-      a = bodies%a(:, i)
-      call newmark_translate(x, v, a, gravity, tau, config%newmark_beta, config%newmark_gamma)
+      a = self%acceleration(i, gravity)
+      call newmark_translate(x, v, a, self%acceleration(i, gravity), tau, config%newmark_beta, config%newmark_gamma)
       q = bodies%q(:, i)
       w = bodies%w(:, i)
       alpha = bodies%alpha(:, i)
@@ -118,18 +164,24 @@ contains
     type(integrator_config_t), intent(in) :: config
     type(free_flight_stats_t), intent(inout) :: stats
     integer :: i
-    real(dp) :: tau
+    real(dp) :: tau, a(3)
     if (.not. self%exact) then
-      call advance_free_flight(bodies, h, gravity, config, stats)
+      ! The acceleration is constant over the step (gravity, or gravity plus a resting
+      ! contact's force), so Newmark's start and end accelerations are the same.
+      do i = 1, bodies%n_owned
+        if (.not. bodies%fixed(i)) bodies%a(:, i) = self%acceleration(i, gravity)
+      end do
+      call advance_free_flight(bodies, h, gravity, config, stats, acceleration=(bodies%a))
       return
     end if
     do i = 1, bodies%n_owned
       if (bodies%fixed(i)) cycle
       if (.not. self%anchored(i)) call anchor(self, bodies, i, time_old)
       tau = time_new - self%t0(i)
-      bodies%x(:, i) = self%x0(:, i) + self%v0(:, i)*tau + (0.5_dp*tau*tau)*gravity
-      bodies%v(:, i) = self%v0(:, i) + tau*gravity
-      bodies%a(:, i) = gravity
+      a = self%acceleration(i, gravity)
+      bodies%x(:, i) = self%x0(:, i) + self%v0(:, i)*tau + (0.5_dp*tau*tau)*a
+      bodies%v(:, i) = self%v0(:, i) + tau*a
+      bodies%a(:, i) = a
       call self%rotors(i)%evaluate(tau, bodies%q(:, i), bodies%w(:, i))
       stats%rotation_updates = stats%rotation_updates + 1
     end do

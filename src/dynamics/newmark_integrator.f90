@@ -208,18 +208,23 @@ contains
   !> is the only force and there is no torque (contacts come in later). Ghosts are not
   !> advanced: their owners do it and the halo exchange copies the result. stats is added
   !> to, not reset. config%rotation is not looked at: this is the 'newmark' update.
-  subroutine advance_free_flight(bodies, h, gravity, config, stats)
+  !> acceleration(:, i), when present, replaces gravity for body i (resting contact loads).
+  subroutine advance_free_flight(bodies, h, gravity, config, stats, acceleration)
     type(bodies_t), intent(inout) :: bodies
     real(dp), intent(in) :: h, gravity(3)
     type(integrator_config_t), intent(in) :: config
     type(free_flight_stats_t), intent(inout) :: stats
+    real(dp), intent(in), optional :: acceleration(:, :)
+    real(dp) :: a_new(3)
     real(dp), parameter :: no_torque(3) = 0.0_dp
     integer :: i, iterations
     logical :: converged
 
     do i = 1, bodies%n_owned
       if (bodies%fixed(i)) cycle
-      call newmark_translate(bodies%x(:, i), bodies%v(:, i), bodies%a(:, i), gravity, h, &
+      a_new = gravity
+      if (present(acceleration)) a_new = acceleration(:, i)
+      call newmark_translate(bodies%x(:, i), bodies%v(:, i), bodies%a(:, i), a_new, h, &
                              config%newmark_beta, config%newmark_gamma)
       call newmark_rotate(bodies%q(:, i), bodies%w(:, i), bodies%alpha(:, i), bodies%inertia(:, i), &
                           no_torque, h, config%newmark_beta, config%newmark_gamma, &

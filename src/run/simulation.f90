@@ -261,7 +261,12 @@ contains
       end if
       ! Collisions: no body moves more than one grid box, and the step ends at the earliest
       ! time of contact.
-      h = self%collisions%limit_step(self%bodies, self%deck%run%gravity, h)
+      h = self%collisions%limit_step(self%bodies, self%propagator, self%deck%run%gravity, h)
+      ! Resting contacts first: their forces over the step become the bodies' loads, so
+      ! bodies at rest keep whole steps (docs/contact.md).
+      call self%collisions%contact_pass(self%bodies, self%shapes, self%propagator, h, self%deck%run%gravity, err)
+      if (err%failed()) return
+      h = self%collisions%limit_step(self%bodies, self%propagator, self%deck%run%gravity, h)
       call self%collisions%earliest_contact(self%bodies, self%shapes, self%propagator, self%time, h, &
                                             self%deck%run%gravity, self%deck%integrator, h_event, err)
       if (err%failed()) return
@@ -376,6 +381,7 @@ contains
     call write_checkpoint(par, join_path(self%output_dir, name//'.h5'), meta, self%bodies, err)
     ! Exact flight re-anchors at the checkpoint's state, as a run restarted from it will.
     call self%propagator%release_all()
+    call self%collisions%resting%forget()
   end subroutine write_checkpoint_now
 
   !> What a checkpoint needs besides the bodies, and the deck fingerprint it is checked with.
@@ -452,6 +458,16 @@ contains
       self%collisions%stats%corrections, ' distance corrections)'
     write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', self%collisions%stats%pair_tests, ' pair queries, ', &
       self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, ' capped)'
+    associate (rest => self%collisions%resting)
+      if (rest%stats%passes > 0) then
+        write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  resting contact      ', rest%stats%passes, ' steps, ', &
+          rest%stats%contacts, ' contact points (', rest%stats%warm_starts, ' warm-started), ', &
+          rest%stats%loaded, ' body-steps under load'
+        write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  contact solver       ', rest%pgs%solves, ' PGS solves, ', &
+          rest%pgs%sweeps, ' sweeps (max ', rest%pgs%max_sweeps_seen, ', capped ', rest%pgs%cap_hits, &
+          '), '//str(rest%exact%groups)//' exact groups'
+      end if
+    end associate
     if (self%collisions%stats%min_separation < huge(1.0_dp)) then
       write (*, '(a,es10.3,a,es10.3,a)') '  smallest separation  ', self%collisions%stats%min_separation, &
         ' m (minimum separation ', self%collisions%target, ' m)'

@@ -1,0 +1,214 @@
+!> Projected Gauss-Seidel (PGS) for contact impulses with Coulomb friction.
+!>
+!> Each contact point c between bodies a and b carries an impulse P_c = lambda_n n + lambda_t
+!> (applied +P to b, -P to a) with lambda_n >= 0 and |lambda_t| <= mu lambda_n (the friction
+!> cone). One sweep visits every contact and, holding the others fixed, solves its own 3x3
+!> problem exactly:
+!>   - normal: lambda_n <- max(0, lambda_n - u_n / K_nn)      (no approach, no pull);
+!>   - tangential: lambda_t <- lambda_t - K_tt^(-1) u_t, then scaled back onto the cone
+!>     |lambda_t| <= mu lambda_n (stick if the cone allows it, else slide: the largest
+!>     friction impulse, against the slip);
+!> with u the relative velocity at the contact and K = J M^(-1) J^T its 3x3 effective inverse
+!> mass (translation and rotation of both bodies). Sweeps repeat until no contact's update
+!> changes its own relative velocity by more than `tolerance` [m/s], or the sweep cap. (The
+!> test is on velocities, not impulses: face-to-face contacts give more points than the
+!> impulses need, so the impulses are not unique, while the velocities are.) Contacts are visited in the
+!> order given: the caller sorts them bottom-up along gravity, so in a stack the load is
+!> carried down in a few sweeps (the ordering half of shock propagation). Warm starts (the
+!> impulses of the same contacts at the previous step) make a resting stack converge in one
+!> or two sweeps.
+!>
+!> The result need not be exact for safety: conservative advancement catches any residual
+!> approach as an ordinary event. It must be dissipative: each local normal step is a
+!> projection and each tangential step moves towards stick, inside the cone.
+module contact_solver
+  use kinds, only: dp
+  use vector_ops, only: cross
+  use quaternion, only: quat_rotate, quat_rotate_inverse
+  use body_state, only: bodies_t
+  use impulse_solver, only: contact_t
+  implicit none
+  private
+  public :: pgs_stats_t, solve_contacts_pgs, tangent_basis
+
+  type :: pgs_stats_t
+    integer :: solves = 0              !< calls
+    integer :: sweeps = 0              !< sweeps, summed
+    integer :: max_sweeps_seen = 0
+    integer :: cap_hits = 0            !< solves stopped by the sweep cap
+  end type pgs_stats_t
+
+contains
+
+  !> Two unit tangents completing n to a right-handed orthonormal basis (n, t1, t2).
+  pure subroutine tangent_basis(n, t1, t2)
+    real(dp), intent(in) :: n(3)
+    real(dp), intent(out) :: t1(3), t2(3)
+    ! Cross with the axis least aligned with n: no cancellation.
+    if (abs(n(1)) <= abs(n(2)) .and. abs(n(1)) <= abs(n(3))) then
+      t1 = [0.0_dp, n(3), -n(2)]
+    else if (abs(n(2)) <= abs(n(3))) then
+      t1 = [-n(3), 0.0_dp, n(1)]
+    else
+      t1 = [n(2), -n(1), 0.0_dp]
+    end if
+    t1 = t1/norm2(t1)
+    t2 = cross(n, t1)
+  end subroutine tangent_basis
+
+  !> Solves for the impulses of contacts(:) (friction mu per contact in contacts%friction)
+  !> and applies them to bodies%v, bodies%w. impulse(3, m): in, the warm start (world
+  !> vectors); out, the impulses applied. Only the normal part is solved where `frictionless`.
+  !> fixed_normal(m), when present, holds the normal impulses fixed (tangential solve only,
+  !> with cone radius mu*fixed_normal): friction at an impact whose normal impulses are known.
+  subroutine solve_contacts_pgs(bodies, contacts, impulse, tolerance, max_sweeps, stats, fixed_normal)
+    type(bodies_t), intent(inout) :: bodies
+    type(contact_t), intent(in) :: contacts(:)
+    real(dp), intent(inout) :: impulse(:, :)
+    real(dp), intent(in) :: tolerance      !< velocity change per sweep that ends the sweeps [m/s]
+    integer, intent(in) :: max_sweeps
+    type(pgs_stats_t), intent(inout) :: stats
+    real(dp), intent(in), optional :: fixed_normal(:)
+    real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), lam(:, :)
+    real(dp) :: k(3, 3), u(3), un, ut(2), dl(3), new_t(2), limit, change, p(3)
+    integer :: m, c, sweep
+    logical :: tangential_only
+
+    m = size(contacts)
+    stats%solves = stats%solves + 1
+    if (m == 0) return
+    tangential_only = present(fixed_normal)
+    allocate (basis(3, 3, m), k_nn(m), k_tt(2, 2, m), lam(3, m))
+    do c = 1, m
+      basis(:, 1, c) = contacts(c)%normal
+      call tangent_basis(contacts(c)%normal, basis(:, 2, c), basis(:, 3, c))
+      k = effective_mass(bodies, contacts(c))
+      k_nn(c) = dot_product(basis(:, 1, c), matmul(k, basis(:, 1, c)))
+      k_tt(:, :, c) = matmul(transpose(basis(:, 2:3, c)), matmul(k, basis(:, 2:3, c)))
+      ! the warm start in the contact's basis, put inside the cone
+      lam(:, c) = matmul(transpose(basis(:, :, c)), impulse(:, c))
+      if (tangential_only) lam(1, c) = fixed_normal(c)
+      lam(1, c) = max(lam(1, c), 0.0_dp)
+      if (contacts(c)%friction <= 0.0_dp) lam(2:3, c) = 0.0_dp
+      call clamp_to_cone(lam(2:3, c), contacts(c)%friction*lam(1, c))
+      p = matmul(basis(:, :, c), lam(:, c))
+      call apply(bodies, contacts(c), p)
+    end do
+
+    do sweep = 1, max_sweeps
+      change = 0.0_dp
+      do c = 1, m
+        dl = 0.0_dp
+        if (.not. tangential_only) then
+          u = relative_velocity(bodies, contacts(c))
+          un = dot_product(basis(:, 1, c), u)
+          dl(1) = max(lam(1, c) - un/k_nn(c), 0.0_dp) - lam(1, c)
+          if (dl(1) /= 0.0_dp) call apply(bodies, contacts(c), dl(1)*basis(:, 1, c))
+          lam(1, c) = lam(1, c) + dl(1)
+        end if
+        if (contacts(c)%friction > 0.0_dp) then
+          u = relative_velocity(bodies, contacts(c))
+          ut = matmul(transpose(basis(:, 2:3, c)), u)
+          new_t = lam(2:3, c) - solve2(k_tt(:, :, c), ut)
+          limit = contacts(c)%friction*lam(1, c)
+          call clamp_to_cone(new_t, limit)
+          dl(2:3) = new_t - lam(2:3, c)
+          if (any(dl(2:3) /= 0.0_dp)) call apply(bodies, contacts(c), matmul(basis(:, 2:3, c), dl(2:3)))
+          lam(2:3, c) = new_t
+        end if
+        change = max(change, abs(dl(1))*k_nn(c), norm2(dl(2:3))*0.5_dp*(k_tt(1, 1, c) + k_tt(2, 2, c)))
+      end do
+      stats%sweeps = stats%sweeps + 1
+      stats%max_sweeps_seen = max(stats%max_sweeps_seen, sweep)
+      if (change <= tolerance) exit
+      if (sweep == max_sweeps) stats%cap_hits = stats%cap_hits + 1
+    end do
+    do c = 1, m
+      impulse(:, c) = matmul(basis(:, :, c), lam(:, c))
+    end do
+  end subroutine solve_contacts_pgs
+
+  pure subroutine clamp_to_cone(t, limit)
+    real(dp), intent(inout) :: t(2)
+    real(dp), intent(in) :: limit
+    real(dp) :: size_t
+    size_t = norm2(t)
+    if (size_t > limit) then
+      if (limit > 0.0_dp) then
+        t = t*(limit/size_t)
+      else
+        t = 0.0_dp
+      end if
+    end if
+  end subroutine clamp_to_cone
+
+  !> x = A^(-1) b for a symmetric positive definite 2x2 A.
+  pure function solve2(a, b) result(x)
+    real(dp), intent(in) :: a(2, 2), b(2)
+    real(dp) :: x(2), det
+    det = a(1, 1)*a(2, 2) - a(1, 2)*a(2, 1)
+    x(1) = (a(2, 2)*b(1) - a(1, 2)*b(2))/det
+    x(2) = (a(1, 1)*b(2) - a(2, 1)*b(1))/det
+  end function solve2
+
+  !> Velocity of b minus velocity of a at the contact point [m/s].
+  pure function relative_velocity(bodies, c) result(u)
+    type(bodies_t), intent(in) :: bodies
+    type(contact_t), intent(in) :: c
+    real(dp) :: u(3)
+    u = bodies%v(:, c%b) + cross(bodies%w(:, c%b), c%point - bodies%x(:, c%b)) &
+        - bodies%v(:, c%a) - cross(bodies%w(:, c%a), c%point - bodies%x(:, c%a))
+  end function relative_velocity
+
+  !> The impulse p acts on b, -p on a (fixed bodies have zero inverse mass and inertia).
+  pure subroutine apply(bodies, c, p)
+    type(bodies_t), intent(inout) :: bodies
+    type(contact_t), intent(in) :: c
+    real(dp), intent(in) :: p(3)
+    call kick(bodies, c%b, c%point, p)
+    call kick(bodies, c%a, c%point, -p)
+  end subroutine apply
+
+  pure subroutine kick(bodies, i, point, p)
+    type(bodies_t), intent(inout) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: point(3), p(3)
+    if (bodies%fixed(i)) return
+    bodies%v(:, i) = bodies%v(:, i) + bodies%inv_mass(i)*p
+    bodies%w(:, i) = bodies%w(:, i) + world_inverse_inertia(bodies, i, cross(point - bodies%x(:, i), p))
+  end subroutine kick
+
+  pure function world_inverse_inertia(bodies, i, vector) result(r)
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: vector(3)
+    real(dp) :: r(3)
+    r = quat_rotate(bodies%q(:, i), bodies%inv_inertia(:, i)*quat_rotate_inverse(bodies%q(:, i), vector))
+  end function world_inverse_inertia
+
+  !> K = (1/m_a + 1/m_b) I - [r_a]x I_a^-1 [r_a]x - [r_b]x I_b^-1 [r_b]x: the change of the
+  !> relative contact velocity per unit impulse.
+  pure function effective_mass(bodies, c) result(k)
+    type(bodies_t), intent(in) :: bodies
+    type(contact_t), intent(in) :: c
+    real(dp) :: k(3, 3), e(3)
+    integer :: axis
+    do axis = 1, 3
+      e = 0.0_dp
+      e(axis) = 1.0_dp
+      k(:, axis) = response(c%b, e) + response(c%a, e)
+    end do
+    k = 0.5_dp*(k + transpose(k))
+  contains
+    pure function response(i, p) result(du)
+      integer, intent(in) :: i
+      real(dp), intent(in) :: p(3)
+      real(dp) :: du(3), r(3)
+      du = 0.0_dp
+      if (bodies%fixed(i)) return
+      r = c%point - bodies%x(:, i)
+      du = bodies%inv_mass(i)*p + cross(world_inverse_inertia(bodies, i, cross(r, p)), r)
+    end function response
+  end function effective_mass
+
+end module contact_solver

@@ -1,0 +1,216 @@
+!> Resting contact: the contact pass at the start of every step (Guendelman, Bridson and
+!> Fedkiw 2003, "Nonconvex rigid bodies with stacking", with the step kept whole as in
+!> velocity-level time stepping; docs/contact.md, "Resting contact").
+!>
+!> Contacts in the contact band that are not approaching faster than the rest speed are
+!> *persistent*. For the bodies they touch, gravity's impulse over the coming step h is
+!> added (v* = v + g h) and the persistent contacts are solved at velocity level with e = 0
+!> and Coulomb friction, so that no persistent contact approaches at the end of the step.
+!> The impulse found is then spread over the step as a constant contact force: the body
+!> moves with acceleration a = g + dv/h from its velocity at the start of the step, which
+!> is exact for constant forces (a block sliding down an incline, a stack under its weight)
+!> and ends the step with the solved velocity. The change of angular velocity is applied at
+!> once. A body at rest on a floor therefore has a = 0: conservative advancement sees no
+!> closing motion and the step stays at dt_max instead of collapsing into micro-bounces.
+!>
+!> Solvers: a frictionless group of up to exact_limit contacts gets the exact inelastic
+!> projection of impulse_solver (the original method, order-free and symmetric); groups
+!> with friction or more contacts get projected Gauss-Seidel (contact_solver), contacts
+!> ordered bottom-up along gravity and warm-started from the previous step's contact forces
+!> (cached by the two bodies' global ids and the features' ids).
+!> Nothing here is needed for safety: conservative advancement still bounds every motion,
+!> so an unconverged solve costs events, never an interpenetration.
+module resting_contact
+  use kinds, only: dp, i8
+  use error_status, only: error_t
+  use body_state, only: bodies_t
+  use free_flight, only: free_flight_t
+  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity
+  use contact_solver, only: pgs_stats_t, solve_contacts_pgs
+  use sorting, only: sort_index_real, sort_index_keys, find_key
+  implicit none
+  private
+  public :: resting_contact_t, resting_stats_t
+
+  type :: resting_stats_t
+    integer(i8) :: passes = 0          !< steps with persistent contacts
+    integer(i8) :: contacts = 0        !< persistent contact points solved, summed over steps
+    integer(i8) :: loaded = 0          !< body-steps carried by a contact force
+    integer(i8) :: warm_starts = 0     !< contacts warm-started from the previous step
+    integer(i8) :: projections = 0     !< PGS results finished by the exact projection
+  end type resting_stats_t
+
+  type :: resting_contact_t
+    real(dp) :: tolerance = 1.0e-9_dp      !< PGS: velocity change per sweep that ends it [m/s]
+    integer :: max_sweeps = 30             !< PGS sweep cap (the exact projection finishes)
+    integer :: exact_limit = 64            !< largest frictionless group solved exactly
+    integer :: projection_limit = 400      !< largest group whose PGS residual is projected away
+    real(dp) :: velocity_tolerance = 1.0e-9_dp   !< [m/s]
+    integer(i8), allocatable :: cache_keys(:, :) !< sorted keys of the last PGS contacts
+    real(dp), allocatable :: cache_force(:, :)   !< their contact forces, world [N]
+    integer :: n_cache = 0
+    type(resting_stats_t) :: stats
+    type(pgs_stats_t) :: pgs
+    type(impulse_stats_t) :: exact
+  contains
+    procedure :: solve => resting_solve
+    procedure :: forget => resting_forget
+  end type resting_contact_t
+
+contains
+
+  !> Drops the warm starts (at checkpoints, so a restart repeats the same arithmetic).
+  subroutine resting_forget(self)
+    class(resting_contact_t), intent(inout) :: self
+    self%n_cache = 0
+  end subroutine resting_forget
+
+  !> The contact pass over the persistent contacts(1:n) (keys: pair_geometry's) for a step
+  !> of h [s] under gravity [m/s^2]: sets the loads of the free-flight propagator and the
+  !> angular velocities; linear velocities are left at their start-of-step values.
+  subroutine resting_solve(self, bodies, flight, contacts, keys, n, h, gravity, err)
+    class(resting_contact_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(free_flight_t), intent(inout) :: flight
+    type(contact_t), intent(inout) :: contacts(:)
+    integer(i8), intent(in) :: keys(:, :)
+    integer, intent(in) :: n
+    real(dp), intent(in) :: h, gravity(3)
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: v_start(:, :), w_start(:, :), impulse(:, :), height(:), new_force(:, :)
+    integer(i8), allocatable :: new_keys(:, :)
+    integer, allocatable :: parent(:), group_of(:), members(:), order(:)
+    logical, allocatable :: involved(:), done(:)
+    integer :: n_bodies, c, i, root, k, slot, n_new
+    real(dp) :: dv(3), down(3)
+
+    n_bodies = bodies%n_owned + bodies%n_ghost
+    allocate (involved(n_bodies))
+    involved = .false.
+    do c = 1, n
+      if (.not. bodies%fixed(contacts(c)%a)) involved(contacts(c)%a) = .true.
+      if (.not. bodies%fixed(contacts(c)%b)) involved(contacts(c)%b) = .true.
+    end do
+    if (n > 0) then
+      self%stats%passes = self%stats%passes + 1
+      self%stats%contacts = self%stats%contacts + n
+    end if
+    v_start = bodies%v
+    w_start = bodies%w
+    do i = 1, n_bodies
+      if (involved(i)) bodies%v(:, i) = bodies%v(:, i) + h*gravity
+    end do
+
+    ! Groups: contacts connected through moving bodies.
+    allocate (parent(n_bodies), group_of(n), done(n))
+    parent = [(i, i=1, n_bodies)]
+    do c = 1, n
+      if (involved(contacts(c)%a) .and. involved(contacts(c)%b)) call unite(parent, contacts(c)%a, contacts(c)%b)
+    end do
+    do c = 1, n
+      if (involved(contacts(c)%a)) then
+        group_of(c) = find(parent, contacts(c)%a)
+      else
+        group_of(c) = find(parent, contacts(c)%b)
+      end if
+    end do
+    down = 0.0_dp
+    if (norm2(gravity) > 0.0_dp) down = gravity/norm2(gravity)
+    allocate (new_keys(size(keys, 1), n), new_force(3, n))
+    n_new = 0
+    done = .false.
+    do c = 1, n
+      if (done(c)) cycle
+      root = group_of(c)
+      members = pack([(k, k=1, n)], group_of == root)
+      done(members) = .true.
+      if (all(contacts(members)%friction <= 0.0_dp) .and. size(members) <= self%exact_limit) then
+        contacts(members)%restitution = 0.0_dp
+        call resolve_impacts(bodies, contacts(members), self%velocity_tolerance, 1, self%exact, err)
+        if (err%failed()) return
+        cycle
+      end if
+      ! bottom-up: the lowest contact points first
+      allocate (height(size(members)))
+      do k = 1, size(members)
+        height(k) = -dot_product(down, contacts(members(k))%point)
+      end do
+      call sort_index_real(height, order)
+      members = members(order)
+      deallocate (height)
+      allocate (impulse(3, size(members)))
+      impulse = 0.0_dp
+      do k = 1, size(members)
+        slot = 0
+        if (self%n_cache > 0) slot = find_key(self%cache_keys, self%n_cache, keys(:, members(k)))
+        if (slot > 0) then
+          impulse(:, k) = self%cache_force(:, slot)*h
+          self%stats%warm_starts = self%stats%warm_starts + 1
+        end if
+      end do
+      call solve_contacts_pgs(bodies, contacts(members), impulse, self%tolerance, self%max_sweeps, self%pgs)
+      ! PGS converges slowly in tall stacks; what it leaves approaching is removed by the
+      ! exact inelastic projection (it changes the velocities by no more than the residual),
+      ! so the step is not cut by a micro-event. Larger groups leave it to the events.
+      if (size(members) <= self%projection_limit) then
+        if (any([(normal_velocity(bodies, contacts(members(k))) < -self%velocity_tolerance, k=1, size(members))])) then
+          contacts(members)%restitution = 0.0_dp
+          call resolve_impacts(bodies, contacts(members), self%velocity_tolerance, 1, self%exact, err)
+          if (err%failed()) return
+          self%stats%projections = self%stats%projections + 1
+        end if
+      end if
+      do k = 1, size(members)
+        n_new = n_new + 1
+        new_keys(:, n_new) = keys(:, members(k))
+        new_force(:, n_new) = impulse(:, k)/h
+      end do
+      deallocate (impulse)
+    end do
+    ! The new cache, sorted by key.
+    call sort_index_keys(new_keys(:, 1:n_new), order)
+    if (allocated(self%cache_keys)) deallocate (self%cache_keys, self%cache_force)
+    self%cache_keys = new_keys(:, order)
+    self%cache_force = new_force(:, order)
+    self%n_cache = n_new
+
+    ! Loads: the velocity change becomes a constant force over the step.
+    do i = 1, bodies%n_owned
+      if (bodies%fixed(i)) cycle
+      if (.not. involved(i)) then
+        call flight%clear_load(i)
+        cycle
+      end if
+      dv = bodies%v(:, i) - (v_start(:, i) + h*gravity)
+      if (any(bodies%w(:, i) /= w_start(:, i))) call flight%release(i)
+      bodies%v(:, i) = v_start(:, i)
+      if (all(dv == 0.0_dp)) then
+        call flight%clear_load(i)
+      else
+        call flight%set_load(i, gravity + dv/h)
+        self%stats%loaded = self%stats%loaded + 1
+      end if
+    end do
+  end subroutine resting_solve
+
+  recursive integer function find(parent, i) result(root)
+    integer, intent(inout) :: parent(:)
+    integer, intent(in) :: i
+    if (parent(i) == i) then
+      root = i
+    else
+      root = find(parent, parent(i))
+      parent(i) = root
+    end if
+  end function find
+
+  subroutine unite(parent, i, j)
+    integer, intent(inout) :: parent(:)
+    integer, intent(in) :: i, j
+    integer :: ri, rj
+    ri = find(parent, i)
+    rj = find(parent, j)
+    if (ri /= rj) parent(max(ri, rj)) = min(ri, rj)
+  end subroutine unite
+
+end module resting_contact
