@@ -31,8 +31,9 @@ module deck_reader
   private
   public :: read_deck, write_effective_deck, DECK_AUTO
 
-  !> Value of min_separation and output interval meaning "auto" (derived at set-up). Given
-  !> exactly in a deck it means the same, so an effective deck reads back unchanged.
+  !> Value meaning "auto" (min_separation, rest_speed, output intervals, inertia: derived at
+  !> set-up) or, for a body's restitution and friction, "the &contact value". Given exactly
+  !> in a deck it means the same, so an effective deck reads back unchanged.
   real(dp), parameter :: DECK_AUTO = -1.0_dp
 
   integer, parameter :: V_REAL = 1, V_INTEGER = 2, V_LOGICAL = 3, V_CHARACTER = 4
@@ -59,18 +60,19 @@ module deck_reader
     var_spec_t('newmark_beta', V_REAL, 1, 0), var_spec_t('newmark_gamma', V_REAL, 1, 0), &
     var_spec_t('rotation_tolerance', V_REAL, 1, 0), var_spec_t('rotation_max_iterations', V_INTEGER, 1, 0), &
     var_spec_t('rotation', V_CHARACTER, 1, len(integrator_default%rotation))]
-  type(var_spec_t), parameter :: contact_vars(3) = [ &
+  type(var_spec_t), parameter :: contact_vars(4) = [ &
     var_spec_t('restitution', V_REAL, 1, 0), var_spec_t('friction', V_REAL, 1, 0), &
-    var_spec_t('min_separation', V_REAL, 1, 0)]
+    var_spec_t('min_separation', V_REAL, 1, 0), var_spec_t('rest_speed', V_REAL, 1, 0)]
   type(var_spec_t), parameter :: output_vars(6) = [ &
     var_spec_t('dir', V_CHARACTER, 1, len(output_default%dir)), var_spec_t('interval', V_REAL, 1, 0), &
     var_spec_t('checkpoint_interval', V_REAL, 1, 0), var_spec_t('progress_interval', V_REAL, 1, 0), &
     var_spec_t('history_interval', V_REAL, 1, 0), var_spec_t('write_frames', V_LOGICAL, 1, 0)]
-  type(var_spec_t), parameter :: body_vars(21) = [ &
+  type(var_spec_t), parameter :: body_vars(26) = [ &
     var_spec_t('name', V_CHARACTER, 1, len(body_default%name)), &
     var_spec_t('shape', V_CHARACTER, 1, len(body_default%shape)), &
     var_spec_t('radius', V_REAL, 1, 0), var_spec_t('size', V_REAL, 3, 0), &
-    var_spec_t('segments', V_INTEGER, 1, 0), &
+    var_spec_t('segments', V_INTEGER, 1, 0), var_spec_t('minor_radius', V_REAL, 1, 0), &
+    var_spec_t('tube_segments', V_INTEGER, 1, 0), var_spec_t('thickness', V_REAL, 1, 0), &
     var_spec_t('mesh_file', V_CHARACTER, 1, len(body_default%mesh_file)), &
     var_spec_t('scale', V_REAL, 1, 0), var_spec_t('density', V_REAL, 1, 0), var_spec_t('mass', V_REAL, 1, 0), &
     var_spec_t('position', V_REAL, 3, 0), var_spec_t('orientation', V_REAL, 4, 0), &
@@ -78,12 +80,15 @@ module deck_reader
     var_spec_t('fixed', V_LOGICAL, 1, 0), var_spec_t('copies', V_INTEGER, 3, 0), &
     var_spec_t('spacing', V_REAL, 3, 0), var_spec_t('seed', V_INTEGER, 1, 0), &
     var_spec_t('jitter_position', V_REAL, 1, 0), var_spec_t('jitter_angle', V_REAL, 1, 0), &
-    var_spec_t('jitter_velocity', V_REAL, 1, 0), var_spec_t('inertia', V_REAL, 3, 0)]
+    var_spec_t('jitter_velocity', V_REAL, 1, 0), var_spec_t('inertia', V_REAL, 3, 0), &
+    var_spec_t('restitution', V_REAL, 1, 0), var_spec_t('friction', V_REAL, 1, 0)]
 
   character(len=*), parameter :: known_groups = '&run, &integrator, &contact, &output, &body'
   character(len=10), parameter :: group_names(5) = [character(len=10) :: &
     'run', 'integrator', 'contact', 'output', 'body']
-  character(len=8), parameter :: shape_names(4) = [character(len=8) :: 'sphere', 'box', 'cylinder', 'mesh']
+  character(len=11), parameter :: shape_names(7) = [character(len=11) :: 'sphere', 'box', 'cylinder', &
+    'tetrahedron', 'torus', 'l_prism', 'mesh']
+  character(len=*), parameter :: known_shapes = 'sphere, box, cylinder, tetrahedron, torus, l_prism, mesh'
 
   type :: token_t
     integer :: kind = 0
@@ -984,6 +989,18 @@ contains
     given_element = g%given_line(element, spec_index(g, name)) > 0
   end function given_element
 
+  !> First line where any of the given elements of the variable is given (the group's
+  !> first line if none is): a message about size(2) points at size(2), not at size(1).
+  pure integer function first_element_line(g, name, elements) result(line)
+    type(group_input_t), intent(in) :: g
+    character(len=*), intent(in) :: name
+    integer, intent(in) :: elements(:)
+    integer :: lines(size(elements))
+    lines = g%given_line(elements, spec_index(g, name))
+    line = g%line
+    if (any(lines > 0)) line = minval(lines, mask=lines > 0)
+  end function first_element_line
+
   !> Line where the variable is given (the group's first line if it is not).
   pure integer function var_line(g, name) result(line)
     type(group_input_t), intent(in) :: g
@@ -1195,10 +1212,10 @@ contains
     type(contact_config_t), intent(out) :: config
     type(error_t), intent(inout) :: err
     type(group_input_t) :: g
-    real(dp) :: restitution, friction, min_separation
+    real(dp) :: restitution, friction, min_separation, rest_speed
     integer :: ios
     character(len=512) :: msg
-    namelist /contact/ restitution, friction, min_separation
+    namelist /contact/ restitution, friction, min_separation, rest_speed
 
     call open_group(src, group, contact_vars, '&contact', g)
     call prepare_group(g, err)
@@ -1206,6 +1223,7 @@ contains
     restitution = config%restitution
     friction = config%friction
     min_separation = config%min_separation
+    rest_speed = config%rest_speed
     msg = ''
     read (g%text, nml=contact, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -1215,10 +1233,12 @@ contains
     config%restitution = restitution
     config%friction = friction
     config%min_separation = min_separation
+    config%rest_speed = rest_speed
 
     call require_finite(g, err, 'restitution', [restitution])
     call require_finite(g, err, 'friction', [friction])
     call require_finite(g, err, 'min_separation', [min_separation])
+    call require_finite(g, err, 'rest_speed', [rest_speed])
     if (err%failed()) return
     if (restitution < 0.0_dp .or. restitution > 1.0_dp) then
       call fail(g, err, 'restitution', 'restitution must be in [0, 1], got '//real_text(restitution))
@@ -1228,6 +1248,8 @@ contains
       ! 0 would let the time of contact collapse to zero (DEVELOPERS.md, the method).
       call fail(g, err, 'min_separation', 'min_separation must be > 0 m, or -1 for auto, got '// &
                 real_text(min_separation))
+    else if (rest_speed /= DECK_AUTO .and. rest_speed < 0.0_dp) then
+      call fail(g, err, 'rest_speed', 'rest_speed must be >= 0 m/s, or -1 for auto, got '//real_text(rest_speed))
     end if
   end subroutine read_contact_group
 
@@ -1338,21 +1360,25 @@ contains
     character(len=len(spec%name)) :: name
     character(len=len(spec%shape)) :: shape
     character(len=len(spec%mesh_file)) :: mesh_file
-    real(dp) :: radius, size(3), scale, density, mass, position(3), orientation(4), velocity(3), &
-                angular_velocity(3), spacing(3), jitter_position, jitter_angle, jitter_velocity, inertia(3)
-    integer :: segments, copies(3), seed
+    real(dp) :: radius, size(3), minor_radius, thickness, scale, density, mass, position(3), orientation(4), &
+                velocity(3), angular_velocity(3), spacing(3), jitter_position, jitter_angle, jitter_velocity, &
+                inertia(3), restitution, friction
+    integer :: segments, tube_segments, copies(3), seed
     logical :: fixed
     integer :: ios
     character(len=512) :: msg
-    namelist /body/ name, shape, radius, size, segments, mesh_file, scale, density, mass, position, &
-      orientation, velocity, angular_velocity, fixed, copies, spacing, seed, jitter_position, jitter_angle, &
-      jitter_velocity, inertia
+    namelist /body/ name, shape, radius, size, segments, minor_radius, tube_segments, thickness, mesh_file, &
+      scale, density, mass, position, orientation, velocity, angular_velocity, fixed, copies, spacing, seed, &
+      jitter_position, jitter_angle, jitter_velocity, inertia, restitution, friction
 
     name = spec%name
     shape = spec%shape
     radius = spec%radius
     size = spec%size
     segments = spec%segments
+    minor_radius = spec%minor_radius
+    tube_segments = spec%tube_segments
+    thickness = spec%thickness
     mesh_file = spec%mesh_file
     scale = spec%scale
     density = spec%density
@@ -1369,6 +1395,8 @@ contains
     jitter_angle = spec%jitter_angle
     jitter_velocity = spec%jitter_velocity
     inertia = spec%inertia
+    restitution = spec%restitution
+    friction = spec%friction
     msg = ''
     read (g%text, nml=body, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -1380,6 +1408,9 @@ contains
     spec%radius = radius
     spec%size = size
     spec%segments = segments
+    spec%minor_radius = minor_radius
+    spec%tube_segments = tube_segments
+    spec%thickness = thickness
     spec%mesh_file = mesh_file
     spec%scale = scale
     spec%density = density
@@ -1396,6 +1427,8 @@ contains
     spec%jitter_angle = jitter_angle
     spec%jitter_velocity = jitter_velocity
     spec%inertia = inertia
+    spec%restitution = restitution
+    spec%friction = friction
   end subroutine namelist_read_body
 
   !> inertia: auto (all -1) or three positive moments that a rigid body can have (each at
@@ -1431,7 +1464,7 @@ contains
     character(len=*), intent(in) :: folder
     type(body_spec_t), intent(inout) :: spec
     type(error_t), intent(inout) :: err
-    character(len=:), allocatable :: resolved
+    character(len=:), allocatable :: resolved, shape
     real(dp) :: norm
     integer :: axis
     logical :: exists
@@ -1439,6 +1472,8 @@ contains
 
     call require_finite(g, err, 'radius', [spec%radius])
     call require_finite(g, err, 'size', spec%size)
+    call require_finite(g, err, 'minor_radius', [spec%minor_radius])
+    call require_finite(g, err, 'thickness', [spec%thickness])
     call require_finite(g, err, 'scale', [spec%scale])
     call require_finite(g, err, 'density', [spec%density])
     call require_finite(g, err, 'mass', [spec%mass])
@@ -1451,6 +1486,8 @@ contains
     call require_finite(g, err, 'jitter_angle', [spec%jitter_angle])
     call require_finite(g, err, 'jitter_velocity', [spec%jitter_velocity])
     call require_finite(g, err, 'inertia', spec%inertia)
+    call require_finite(g, err, 'restitution', [spec%restitution])
+    call require_finite(g, err, 'friction', [spec%friction])
     if (err%failed()) return
     call check_inertia(g, spec, err)
     if (err%failed()) return
@@ -1463,48 +1500,84 @@ contains
     ! Shape and the variables that belong to it; a variable of another shape is an error
     ! (a box given a radius is a mistake, not a remark).
     if (.not. given(g, 'shape')) then
-      call fail(g, err, '', 'shape is required (one of sphere, box, cylinder, mesh)')
+      call fail(g, err, '', 'shape is required (one of '//known_shapes//')')
       return
     end if
     if (findloc(shape_names, trim(spec%shape), dim=1) == 0) then
       call fail(g, err, 'shape', 'unknown shape '''//trim(spec%shape)//''''// &
-                suggestion(trim(spec%shape), shape_names, '')//' (known: sphere, box, cylinder, mesh)')
+                suggestion(trim(spec%shape), shape_names, '')//' (known: '//known_shapes//')')
       return
     end if
-    call reject_unless(g, err, 'radius', spec%shape == 'sphere' .or. spec%shape == 'cylinder', &
-                       spec%shape, 'a box takes size; a mesh takes mesh_file and scale')
-    call reject_unless(g, err, 'segments', spec%shape == 'cylinder', spec%shape, 'only a cylinder has segments')
-    call reject_unless(g, err, 'mesh_file', spec%shape == 'mesh', spec%shape, 'only a mesh reads a file')
-    call reject_unless(g, err, 'scale', spec%shape == 'mesh', spec%shape, 'only a mesh is scaled')
-    call reject_unless(g, err, 'size', spec%shape == 'box' .or. spec%shape == 'cylinder', spec%shape, &
-                       'a sphere takes radius; a mesh takes mesh_file and scale')
+    shape = trim(spec%shape)
+    call reject_unless(g, err, 'radius', shape == 'sphere' .or. shape == 'cylinder' .or. shape == 'torus', shape)
+    call reject_unless(g, err, 'segments', shape == 'cylinder' .or. shape == 'torus', shape)
+    call reject_unless(g, err, 'mesh_file', shape == 'mesh', shape)
+    call reject_unless(g, err, 'scale', shape == 'mesh', shape)
+    call reject_unless(g, err, 'size', shape == 'box' .or. shape == 'cylinder' .or. shape == 'tetrahedron' .or. &
+                       shape == 'l_prism', shape)
+    call reject_unless(g, err, 'minor_radius', shape == 'torus', shape)
+    call reject_unless(g, err, 'tube_segments', shape == 'torus', shape)
+    call reject_unless(g, err, 'thickness', shape == 'l_prism', shape)
     if (err%failed()) return
-    select case (trim(spec%shape))
+    select case (shape)
     case ('sphere')
       call require_positive(g, err, 'radius', spec%radius, 'm', 'a sphere needs radius [m]')
     case ('box')
-      do axis = 1, 3
-        if (err%failed()) exit
-        if (.not. given_element(g, 'size', axis)) then
-          call fail(g, err, 'size', 'a box needs all three edge lengths: size = x, y, z [m] (size('// &
-                    str(axis)//') is missing)')
-        else if (spec%size(axis) <= 0.0_dp) then
-          call fail(g, err, 'size', 'size('//str(axis)//') must be > 0 m, got '//real_text(spec%size(axis)))
-        end if
-      end do
+      call require_sizes(g, err, spec%size, 'a box needs all three edge lengths: size = x, y, z [m]')
     case ('cylinder')
       ! A cylinder's axis is its z axis: radius and length size(3) (size(1:2) are the box's).
       call require_positive(g, err, 'radius', spec%radius, 'm', 'a cylinder needs radius [m]')
       if (err%failed()) return
       if (given_element(g, 'size', 1) .or. given_element(g, 'size', 2)) then
-        call fail(g, err, 'size', 'a cylinder takes its length as size(3) = L [m]; size(1) and size(2) '// &
-                  'do not apply (give radius)')
+        call fail_at(g, err, first_element_line(g, 'size', [1, 2]), 'a cylinder takes its length as '// &
+                     'size(3) = L [m]; size(1) and size(2) do not apply (give radius)')
       else if (.not. given_element(g, 'size', 3)) then
         call fail(g, err, '', 'a cylinder needs its length: size(3) = L [m]')
       else if (spec%size(3) <= 0.0_dp) then
         call fail(g, err, 'size', 'size(3) (the cylinder''s length) must be > 0 m, got '//real_text(spec%size(3)))
       else if (spec%segments < 3) then
         call fail(g, err, 'segments', 'segments must be >= 3, got '//str(spec%segments))
+      end if
+    case ('tetrahedron')
+      ! Regular: one length says it all, so size(2:3) given would be a mistake, not a remark.
+      if (given_element(g, 'size', 2) .or. given_element(g, 'size', 3)) then
+        call fail_at(g, err, first_element_line(g, 'size', [2, 3]), 'a tetrahedron takes its edge length as '// &
+                     'size(1) = a [m]; size(2) and size(3) do not apply (it is regular)')
+      else if (.not. given_element(g, 'size', 1)) then
+        call fail(g, err, '', 'a tetrahedron needs its edge length: size(1) = a [m]')
+      else if (spec%size(1) <= 0.0_dp) then
+        call fail(g, err, 'size', 'size(1) (the tetrahedron''s edge length) must be > 0 m, got '// &
+                  real_text(spec%size(1)))
+      end if
+    case ('torus')
+      call require_positive(g, err, 'radius', spec%radius, 'm', &
+                            'a torus needs radius [m], the radius of the circle through its tube''s centre')
+      call require_positive(g, err, 'minor_radius', spec%minor_radius, 'm', &
+                            'a torus needs minor_radius [m], the radius of its tube')
+      if (err%failed()) return
+      if (spec%minor_radius >= spec%radius) then
+        ! r >= R: the tube reaches the axis and the surface would cross itself there.
+        call fail(g, err, 'minor_radius', 'minor_radius = '//real_text(spec%minor_radius)// &
+                  ' m must be < radius = '//real_text(spec%radius)//' m (the tube would reach the axis)')
+      else if (spec%segments < 3) then
+        call fail(g, err, 'segments', 'segments must be >= 3, got '//str(spec%segments))
+      else if (spec%tube_segments < 3) then
+        call fail(g, err, 'tube_segments', 'tube_segments must be >= 3, got '//str(spec%tube_segments))
+      else if (2*int(spec%segments, i8)*int(spec%tube_segments, i8) > int(huge(0), i8)) then
+        ! The mesh has 2 segments tube_segments faces, counted in default integers.
+        call fail(g, err, 'tube_segments', 'segments x tube_segments = '//str(spec%segments)//' x '// &
+                  str(spec%tube_segments)//' makes more than '//str(huge(0))//' faces')
+      end if
+    case ('l_prism')
+      call require_sizes(g, err, spec%size, 'an l_prism needs all three lengths: size = x, y, z [m], '// &
+                         'the outer edges of the L and its extrusion along z')
+      call require_positive(g, err, 'thickness', spec%thickness, 'm', &
+                            'an l_prism needs thickness [m], the width of its arms')
+      if (err%failed()) return
+      if (spec%thickness >= min(spec%size(1), spec%size(2))) then
+        call fail(g, err, 'thickness', 'thickness = '//real_text(spec%thickness)// &
+                  ' m must be < min(size(1), size(2)) = '//real_text(min(spec%size(1), spec%size(2)))// &
+                  ' m (arms that wide fill the rectangle: use a box)')
       end if
     case ('mesh')
       if (.not. given(g, 'mesh_file') .or. len_trim(spec%mesh_file) == 0) then
@@ -1541,6 +1614,16 @@ contains
       call require_positive(g, err, 'mass', spec%mass, 'kg', '')
     else if (.not. spec%fixed) then
       call fail(g, err, '', 'give density [kg/m^3] or mass [kg] (only a fixed body needs neither)')
+    end if
+    if (err%failed()) return
+
+    ! Material: -1 (DECK_AUTO) takes the &contact value when the run is set up.
+    if (spec%restitution /= DECK_AUTO .and. (spec%restitution < 0.0_dp .or. spec%restitution > 1.0_dp)) then
+      call fail(g, err, 'restitution', 'restitution must be in [0, 1], or -1 for the &contact value, got '// &
+                real_text(spec%restitution))
+    else if (spec%friction /= DECK_AUTO .and. spec%friction < 0.0_dp) then
+      call fail(g, err, 'friction', 'friction must be >= 0, or -1 for the &contact value, got '// &
+                real_text(spec%friction))
     end if
     if (err%failed()) return
 
@@ -1599,14 +1682,56 @@ contains
   end subroutine check_body
 
   !> Error if the variable is given although the shape does not use it.
-  subroutine reject_unless(g, err, name, applies, shape, hint)
+  subroutine reject_unless(g, err, name, applies, shape)
     type(group_input_t), intent(in) :: g
     type(error_t), intent(inout) :: err
-    character(len=*), intent(in) :: name, shape, hint
+    character(len=*), intent(in) :: name, shape
     logical, intent(in) :: applies
     if (err%failed() .or. applies) return
-    if (given(g, name)) call fail(g, err, name, name//' does not apply to shape '''//trim(shape)//''' ('//hint//')')
+    if (given(g, name)) call fail(g, err, name, name//' does not apply to shape '''//trim(shape)//''' ('// &
+                                  shape_takes(shape)//')')
   end subroutine reject_unless
+
+  !> What a shape is given, for messages.
+  pure function shape_takes(shape) result(text)
+    character(len=*), intent(in) :: shape
+    character(len=:), allocatable :: text
+    select case (trim(shape))
+    case ('sphere')
+      text = 'a sphere takes radius'
+    case ('box')
+      text = 'a box takes size = x, y, z'
+    case ('cylinder')
+      text = 'a cylinder takes radius, size(3) and segments'
+    case ('tetrahedron')
+      text = 'a tetrahedron takes size(1), its edge length'
+    case ('torus')
+      text = 'a torus takes radius, minor_radius, segments and tube_segments'
+    case ('l_prism')
+      text = 'an l_prism takes size = x, y, z and thickness'
+    case ('mesh')
+      text = 'a mesh takes mesh_file and scale'
+    case default
+      text = 'known shapes: '//known_shapes
+    end select
+  end function shape_takes
+
+  !> All three elements of size given and > 0 (box, l_prism); missing says what is needed.
+  subroutine require_sizes(g, err, size, missing)
+    type(group_input_t), intent(in) :: g
+    type(error_t), intent(inout) :: err
+    real(dp), intent(in) :: size(3)
+    character(len=*), intent(in) :: missing
+    integer :: axis
+    do axis = 1, 3
+      if (err%failed()) return
+      if (.not. given_element(g, 'size', axis)) then
+        call fail(g, err, 'size', missing//' (size('//str(axis)//') is missing)')
+      else if (size(axis) <= 0.0_dp) then
+        call fail(g, err, 'size', 'size('//str(axis)//') must be > 0 m, got '//real_text(size(axis)))
+      end if
+    end do
+  end subroutine require_sizes
 
   subroutine require_positive(g, err, name, value, unit, missing)
     type(group_input_t), intent(in) :: g
@@ -1913,6 +2038,9 @@ contains
     note = '[m]'
     if (deck%contact%min_separation == DECK_AUTO) note = '[m] -1: auto, 1e-4 of the smallest body size'
     call put_real(unit, 'min_separation', [deck%contact%min_separation], note)
+    note = '[m/s] below it impacts are inelastic'
+    if (deck%contact%rest_speed == DECK_AUTO) note = '[m/s] -1: auto, max(2 |g| dt_max, sqrt(2 |g| min_separation))'
+    call put_real(unit, 'rest_speed', [deck%contact%rest_speed], note)
     write (unit, '(a)') '/'
     write (unit, '(a)') '&output'
     call put_text(unit, 'dir', deck%output%dir)
@@ -1933,22 +2061,41 @@ contains
         write (unit, '(a)') '&body ! #'//str(k)
         call put_text(unit, 'name', b%name)
         call put_text(unit, 'shape', b%shape)
-        if (shape == 'sphere' .or. shape == 'cylinder') then
+        select case (shape)
+        case ('sphere', 'cylinder')
           call put_real(unit, 'radius', [b%radius], '[m]')
-        else
+        case ('torus')
+          call put_real(unit, 'radius', [b%radius], '[m] major radius, of the tube''s centre circle')
+        case default
           call put_note(unit, 'radius: not used by shape '''//shape//'''')
-        end if
-        if (shape == 'box') then
+        end select
+        select case (shape)
+        case ('box')
           call put_real(unit, 'size', b%size, '[m]')
-        else if (shape == 'cylinder') then
+        case ('l_prism')
+          call put_real(unit, 'size', b%size, '[m] outer x, y, extrusion z')
+        case ('cylinder')
           call put_real(unit, 'size(3)', [b%size(3)], '[m] length')
-        else
+        case ('tetrahedron')
+          call put_real(unit, 'size(1)', [b%size(1)], '[m] edge length')
+        case default
           call put_note(unit, 'size: not used by shape '''//shape//'''')
-        end if
-        if (shape == 'cylinder') then
+        end select
+        if (shape == 'cylinder' .or. shape == 'torus') then
           call put_integer(unit, 'segments', [b%segments], '')
         else
           call put_note(unit, 'segments: not used by shape '''//shape//'''')
+        end if
+        if (shape == 'torus') then
+          call put_real(unit, 'minor_radius', [b%minor_radius], '[m] tube radius')
+          call put_integer(unit, 'tube_segments', [b%tube_segments], '')
+        else
+          call put_note(unit, 'minor_radius, tube_segments: not used by shape '''//shape//'''')
+        end if
+        if (shape == 'l_prism') then
+          call put_real(unit, 'thickness', [b%thickness], '[m] arm width')
+        else
+          call put_note(unit, 'thickness: not used by shape '''//shape//'''')
         end if
         if (shape == 'mesh') then
           call put_text(unit, 'mesh_file', b%mesh_file)
@@ -1981,6 +2128,12 @@ contains
         else
           call put_real(unit, 'inertia', b%inertia, '[kg m^2] about the shape''s own axes')
         end if
+        note = ''
+        if (b%restitution == DECK_AUTO) note = '-1: the &contact value'
+        call put_real(unit, 'restitution', [b%restitution], note)
+        note = ''
+        if (b%friction == DECK_AUTO) note = '-1: the &contact value'
+        call put_real(unit, 'friction', [b%friction], note)
         write (unit, '(a)') '/'
       end associate
     end do

@@ -33,6 +33,9 @@ module input_config
     real(dp) :: restitution = 0.5_dp         !< coefficient of restitution e in [0, 1]
     real(dp) :: friction = 0.0_dp            !< Coulomb coefficient mu >= 0
     real(dp) :: min_separation = -1.0_dp     !< [m]; auto: 1e-4 of the smallest body size
+    !> [m/s] impacts approaching slower than this are inelastic (resting contact, no Zeno
+    !> sequence of ever smaller bounces); auto (-1): max(2 |g| dt_max, sqrt(2 |g| min_separation))
+    real(dp) :: rest_speed = -1.0_dp
   end type contact_config_t
 
   type :: output_config_t
@@ -47,10 +50,16 @@ module input_config
   !> One &body group: a body, or a lattice of copies of it.
   type :: body_spec_t
     character(len=name_length) :: name = ''
-    character(len=16) :: shape = ''          !< 'sphere', 'box', 'cylinder', 'mesh'
-    real(dp) :: radius = -1.0_dp             !< [m] sphere, cylinder
-    real(dp) :: size(3) = -1.0_dp            !< [m] box edge lengths; cylinder: size(3) is the length
-    integer :: segments = 32                 !< facets around a cylinder
+    !> 'sphere', 'box', 'cylinder', 'tetrahedron', 'torus', 'l_prism', 'mesh'
+    character(len=16) :: shape = ''
+    real(dp) :: radius = -1.0_dp             !< [m] sphere, cylinder; torus: major radius (tube centre circle)
+    !> [m] box edge lengths; cylinder: size(3) is the length; tetrahedron: size(1) is the edge
+    !> length; l_prism: outer x, y and extrusion z
+    real(dp) :: size(3) = -1.0_dp
+    integer :: segments = 32                 !< facets around a cylinder; torus: segments around its z axis
+    real(dp) :: minor_radius = -1.0_dp       !< [m] torus: tube radius, 0 < minor_radius < radius
+    integer :: tube_segments = 16            !< torus: segments around the tube
+    real(dp) :: thickness = -1.0_dp          !< [m] l_prism: arm width, 0 < thickness < min(size(1), size(2))
     character(len=path_length) :: mesh_file = ''   !< resolved against the deck's folder
     real(dp) :: scale = 1.0_dp               !< mesh scale factor [-]
     real(dp) :: density = -1.0_dp            !< [kg/m^3] (density or mass, not both)
@@ -70,6 +79,10 @@ module input_config
     !> replacing those of the uniform solid (hollow or loaded bodies); auto (-1): from the
     !> geometry. The shape's inertia tensor must be diagonal in its own frame.
     real(dp) :: inertia(3) = -1.0_dp
+    !> Material of the group's bodies (fixed ones too); -1: the &contact value. A pair
+    !> combines them as contact_material says (e: the smaller, mu: the geometric mean).
+    real(dp) :: restitution = -1.0_dp        !< coefficient of restitution e in [0, 1] [-]
+    real(dp) :: friction = -1.0_dp           !< Coulomb coefficient mu >= 0 [-]
     integer :: line = 0                      !< line of the deck where the group starts
   end type body_spec_t
 

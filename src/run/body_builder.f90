@@ -13,7 +13,7 @@ module body_builder
   use mesh_io, only: read_mesh_file
   use mesh_topology, only: build_mesh_topology, is_convex
   use shape, only: shape_t, shape_library_t, SHAPE_SPHERE
-  use shape_builders, only: box_mesh, cylinder_mesh
+  use shape_builders, only: box_mesh, cylinder_mesh, tetrahedron_mesh, torus_mesh, l_shape_mesh
   use shape_factory, only: make_sphere_shape, make_mesh_shape
   use input_config, only: deck_t, body_spec_t
   use body_state, only: bodies_t
@@ -67,12 +67,19 @@ contains
             call box_mesh(spec%size, m)
           case ('cylinder')
             call cylinder_mesh(spec%radius, spec%size(3), spec%segments, m)
+          case ('tetrahedron')
+            call tetrahedron_mesh(spec%size(1), m)
+          case ('torus')
+            call torus_mesh(spec%radius, spec%minor_radius, spec%segments, spec%tube_segments, m)
+          case ('l_prism')
+            call l_shape_mesh(spec%size, spec%thickness, m)
           case ('mesh')
             call read_mesh_file(trim(spec%mesh_file), m, err, scale=spec%scale)
           case default
             call err%set(ERR_INPUT, "unknown shape '"//trim(spec%shape)//"'")
           end select
-          if (err%ok() .and. (spec%shape == 'box' .or. spec%shape == 'cylinder')) call build_mesh_topology(m, err)
+          ! Built-in meshes come without topology; read_mesh_file builds its own.
+          if (err%ok() .and. spec%shape /= 'sphere' .and. spec%shape /= 'mesh') call build_mesh_topology(m, err)
           if (err%ok() .and. spec%shape /= 'sphere') call make_mesh_shape(m, label, new_shape, err)
           ! One SKD-tree per shape, shared by every body of that shape.
           if (err%ok() .and. spec%shape /= 'sphere') then
@@ -103,6 +110,13 @@ contains
       write (buffer, '(a,3es24.16)') 'box', spec%size
     case ('cylinder')
       write (buffer, '(a,2es24.16,a,i0)') 'cylinder', spec%radius, spec%size(3), ' n=', spec%segments
+    case ('tetrahedron')
+      write (buffer, '(a,es23.16)') 'tetrahedron a=', spec%size(1)
+    case ('torus')
+      write (buffer, '(a,2es24.16,a,i0,a,i0)') 'torus', spec%radius, spec%minor_radius, ' n=', spec%segments, &
+        ' x ', spec%tube_segments
+    case ('l_prism')
+      write (buffer, '(a,3es24.16,a,es23.16)') 'l_prism', spec%size, ' t=', spec%thickness
     case default
       write (buffer, '(a,es23.16)') 'scale=', spec%scale
       label = 'mesh '//trim(spec%mesh_file)//' '//trim(buffer)
@@ -174,7 +188,8 @@ contains
 
   !> Principal moments of a group's bodies [kg m^2]: the uniform solid's, or the deck's
   !> `inertia` (given about the shape's own axes) expressed in the shape's principal frame,
-  !> where it must be diagonal too (true for boxes, cylinders, spheres, symmetric meshes).
+  !> where it must be diagonal too (true for boxes, cylinders, spheres, tetrahedra, tori,
+  !> symmetric meshes; not for an L prism, whose own x, y axes are not principal).
   subroutine principal_moments(spec, s, density, moments, err)
     type(body_spec_t), intent(in) :: spec
     type(shape_t), intent(in) :: s

@@ -1,6 +1,8 @@
 !> deck_reader: a full deck read with every value checked, defaults filled in, the effective
 !> deck read back to an identical deck_t, and bad decks each rejected with a message naming
-!> the deck, the line, the group (the &body by index and name) and the variable.
+!> the deck, the line, the group (the &body by index and name) and the variable. The
+!> built-in tetrahedron, torus and L prism are also built (body_builder), to check that each
+!> deck value reaches the right builder argument.
 !> Decks are written into the test's run folder. Values are compared exactly: a decimal
 !> literal read twice gives the same double, and write_effective_deck writes the shortest
 !> text that reads back exactly, so any difference is a bug, not round-off.
@@ -10,6 +12,8 @@ program test_deck_reader
   use error_status, only: error_t, ERR_IO
   use input_config, only: deck_t, body_spec_t
   use deck_reader, only: read_deck, write_effective_deck, DECK_AUTO
+  use shape, only: shape_library_t
+  use body_builder, only: build_shapes
   use assertions
   implicit none
   character(len=4096) :: cwd_buffer
@@ -24,6 +28,7 @@ program test_deck_reader
   call test_full_deck()
   call test_defaults()
   call test_round_trip()
+  call test_new_shapes_and_materials()
   call test_bad_decks()
   call test_syntax_edges()
   call test_finish()
@@ -145,7 +150,8 @@ contains
                deck%integrator%rotation_max_iterations == 50 .and. deck%integrator%rotation == 'exact', &
                'integrator defaults')
     call check(deck%contact%restitution == 0.5_dp .and. deck%contact%friction == 0.0_dp .and. &
-               deck%contact%min_separation == DECK_AUTO, 'contact defaults (min_separation auto)')
+               deck%contact%min_separation == DECK_AUTO .and. deck%contact%rest_speed == DECK_AUTO, &
+               'contact defaults (min_separation, rest_speed auto)')
     call check(deck%output%dir == cwd//'/output', 'output dir default resolved: '//trim(deck%output%dir))
     call check(deck%output%interval == DECK_AUTO .and. deck%output%checkpoint_interval == 0.0_dp .and. &
                deck%output%progress_interval == 10.0_dp, 'output defaults')
@@ -158,6 +164,9 @@ contains
                  all(b%angular_velocity == 0.0_dp) .and. b%mass == -1.0_dp, 'motion defaults')
       ! 1.0000001 is within unit_quaternion_tolerance (1e-6) of 1: renormalised to exactly 1.
       call check(all(b%orientation == [1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp]), 'orientation renormalised')
+      call check(b%restitution == DECK_AUTO .and. b%friction == DECK_AUTO, 'material defaults: -1, &contact''s')
+      call check(b%segments == 32 .and. b%tube_segments == 16 .and. b%minor_radius == -1.0_dp .and. &
+                 b%thickness == -1.0_dp, 'shape defaults of other shapes')
     end associate
   end subroutine test_defaults
 
@@ -185,7 +194,8 @@ contains
                first%integrator%rotation == second%integrator%rotation, 'round trip &integrator')
     call check(first%contact%restitution == second%contact%restitution .and. &
                first%contact%friction == second%contact%friction .and. &
-               first%contact%min_separation == second%contact%min_separation, 'round trip &contact')
+               first%contact%min_separation == second%contact%min_separation .and. &
+               first%contact%rest_speed == second%contact%rest_speed, 'round trip &contact')
     call check(first%output%dir == second%output%dir .and. first%output%interval == second%output%interval .and. &
                first%output%checkpoint_interval == second%output%checkpoint_interval .and. &
                first%output%progress_interval == second%output%progress_interval, 'round trip &output')
@@ -203,8 +213,8 @@ contains
     call read_deck('effective_minimal.nml', second, err)
     call check(err%ok(), 'effective minimal deck reads back: '//message(err))
     if (err%failed()) return
-    call check(second%contact%min_separation == DECK_AUTO .and. second%output%interval == DECK_AUTO, &
-               'auto values read back as auto')
+    call check(second%contact%min_separation == DECK_AUTO .and. second%output%interval == DECK_AUTO .and. &
+               second%contact%rest_speed == DECK_AUTO, 'auto values read back as auto')
     call check(same_body(first%bodies(1), second%bodies(1)), 'round trip minimal body')
     ! A second generation writes the same text as the first (paths are absolute).
     open (newunit=unit, file='effective_minimal2.nml', action='write', status='replace')
@@ -213,6 +223,117 @@ contains
     call check(same_text_after_header('effective_minimal.nml', 'effective_minimal2.nml'), &
                'effective deck of the effective deck is the same text')
   end subroutine test_round_trip
+
+  !> The tetrahedron, torus and L prism, per-body materials (a fixed floor's too) and
+  !> rest_speed: read, round-tripped through the effective deck, and built into shapes whose
+  !> volumes match the closed forms of the meshes the builders make.
+  subroutine test_new_shapes_and_materials()
+    type(deck_t) :: first, second
+    type(error_t) :: err
+    type(shape_library_t) :: shapes
+    integer, allocatable :: shape_of_group(:)
+    integer :: unit, k
+    real(dp) :: expected
+    ! Volumes are sums over at most 576 faces of O(1) terms: 1e-12 relative leaves ~4000 ulps.
+    real(dp), parameter :: tol = 1.0e-12_dp
+    call write_lines('shapes.nml', [character(len=100) :: &
+      '&run t_end = 1, dt_max = 0.01, gravity = 0, 0, -9.81 /', &                   ! 1
+      '&contact restitution = 0.7, friction = 0.4, rest_speed = 0.05 /', &           ! 2
+      '&body name = ''floor'', shape = ''box'', size = 4, 4, 0.2, fixed = .true.,', &  ! 3
+      '  restitution = 0.2, friction = 0 /', &                                        ! 4
+      '&body name = ''tet'', shape = ''TetraHedron'', size(1) = 0.3, density = 500,', & ! 5
+      '  restitution = 1, position = 0, 0, 1 /', &                                    ! 6
+      '&body name = ''ring'', shape = ''torus'', radius = 0.5, minor_radius = 0.1,', &  ! 7
+      '  segments = 24, mass = 2, friction = 0.9, position = 2, 0, 1 /', &            ! 8
+      '&body name = ''ell'', shape = ''l_prism'', size = 0.4, 0.3, 0.1,', &             ! 9
+      '  thickness = 0.05, density = 1000, position = -2, 0, 1, tube_segments = 5 /'])  ! 10: not a torus
+    call read_deck('shapes.nml', first, err)
+    call check(err%failed(), 'tube_segments on an l_prism is refused')
+    f5(1) = 'shapes.nml:10:'
+    f5(2) = '&body #4 ''ell'''
+    f5(3) = 'tube_segments does not apply to shape ''l_prism'''
+    call check_error(err%code, message(err), f5(1:3), 'tube_segments on an l_prism')
+    call write_lines('shapes.nml', [character(len=100) :: &
+      '&run t_end = 1, dt_max = 0.01, gravity = 0, 0, -9.81 /', &
+      '&contact restitution = 0.7, friction = 0.4, rest_speed = 0.05 /', &
+      '&body name = ''floor'', shape = ''box'', size = 4, 4, 0.2, fixed = .true.,', &
+      '  restitution = 0.2, friction = 0 /', &
+      '&body name = ''tet'', shape = ''TetraHedron'', size(1) = 0.3, density = 500,', &
+      '  restitution = 1, position = 0, 0, 1 /', &
+      '&body name = ''ring'', shape = ''torus'', radius = 0.5, minor_radius = 0.1,', &
+      '  segments = 24, mass = 2, friction = 0.9, position = 2, 0, 1 /', &
+      '&body name = ''ell'', shape = ''l_prism'', size = 0.4, 0.3, 0.1,', &
+      '  thickness = 0.05, density = 1000, position = -2, 0, 1 /'])
+    call err%clear()
+    call read_deck('shapes.nml', first, err)
+    call check(err%ok(), 'new shapes deck reads: '//message(err))
+    if (err%failed()) return
+    call check(first%contact%rest_speed == 0.05_dp, 'rest_speed read')
+    call check(first%n_bodies == 4, 'four bodies')
+    if (first%n_bodies /= 4) return
+    associate (b => first%bodies(1))
+      call check(b%fixed .and. b%restitution == 0.2_dp .and. b%friction == 0.0_dp, 'a fixed floor has a material')
+    end associate
+    associate (b => first%bodies(2))
+      call check(b%shape == 'tetrahedron' .and. b%size(1) == 0.3_dp .and. all(b%size(2:3) == -1.0_dp), &
+                 'tetrahedron: shape folded, edge size(1)')
+      call check(b%restitution == 1.0_dp .and. b%friction == DECK_AUTO, 'tetrahedron: own e, &contact''s mu')
+    end associate
+    associate (b => first%bodies(3))
+      call check(b%shape == 'torus' .and. b%radius == 0.5_dp .and. b%minor_radius == 0.1_dp, 'torus radii')
+      call check(b%segments == 24 .and. b%tube_segments == 16, 'torus segments given, tube_segments default 16')
+      call check(b%restitution == DECK_AUTO .and. b%friction == 0.9_dp, 'torus: &contact''s e, own mu')
+    end associate
+    associate (b => first%bodies(4))
+      call check(b%shape == 'l_prism' .and. all(b%size == [0.4_dp, 0.3_dp, 0.1_dp]) .and. b%thickness == 0.05_dp, &
+                 'l_prism size and thickness')
+    end associate
+
+    open (newunit=unit, file='shapes_effective.nml', action='write', status='replace')
+    call write_effective_deck(first, unit)
+    close (unit)
+    call read_deck('shapes_effective.nml', second, err)
+    call check(err%ok(), 'new shapes effective deck reads back: '//message(err))
+    if (err%failed()) return
+    call check(second%contact%rest_speed == first%contact%rest_speed, 'round trip rest_speed')
+    call check(second%n_bodies == first%n_bodies, 'round trip new shapes: body count')
+    if (second%n_bodies /= first%n_bodies) return
+    do k = 1, first%n_bodies
+      call check(same_body(first%bodies(k), second%bodies(k)), 'round trip new shapes &body #'//str_i(k))
+    end do
+    open (newunit=unit, file='shapes_effective2.nml', action='write', status='replace')
+    call write_effective_deck(second, unit)
+    close (unit)
+    call check(same_text_after_header('shapes_effective.nml', 'shapes_effective2.nml'), &
+               'new shapes: effective deck of the effective deck is the same text')
+
+    call build_shapes(first, shapes, shape_of_group, err)
+    call check(err%ok(), 'new shapes build: '//message(err))
+    if (err%failed()) return
+    call check(shapes%n_shapes == 4, 'four distinct shapes')
+    associate (s => shapes%shapes(shape_of_group(2)))
+      ! Regular tetrahedron of edge a: V = a^3/(6 sqrt 2).
+      call check(s%mesh%n_faces == 4, 'tetrahedron: 4 faces')
+      call check_close(s%volume, 0.3_dp**3/(6.0_dp*sqrt(2.0_dp)), tol, 'tetrahedron volume a^3/(6 sqrt 2)')
+    end associate
+    associate (s => shapes%shapes(shape_of_group(3)))
+      ! Faceted torus (n segments around z, m around the tube): each wedge between meridians is
+      ! swept linearly, with Jacobian rho sin(2 pi/n), so V = n sin(2 pi/n) R * (m/2) r^2 sin(2 pi/m)
+      ! (Pappus with the polygon's area and the chord instead of the arc).
+      call check(s%mesh%n_faces == 2*24*16 .and. s%mesh%n_nodes == 24*16, 'torus: 24 x 16 segments')
+      call check(index(s%mesh%source, '24 x 16 segments') > 0, 'torus: segments around z, tube_segments around '// &
+                 'the tube: '//s%mesh%source)
+      expected = 24.0_dp*sin(2.0_dp*pi/24.0_dp)*0.5_dp*8.0_dp*0.1_dp**2*sin(2.0_dp*pi/16.0_dp)
+      call check_close(s%volume, expected, tol, 'torus volume (faceted closed form)')
+      call check(.not. s%convex, 'torus is not convex')
+    end associate
+    associate (s => shapes%shapes(shape_of_group(4)))
+      ! L profile: x t + (y - t) t, extruded z.
+      call check(s%mesh%n_faces == 20, 'l_prism: 20 faces')
+      call check_close(s%volume, (0.4_dp*0.05_dp + (0.3_dp - 0.05_dp)*0.05_dp)*0.1_dp, tol, 'l_prism volume')
+      call check(.not. s%convex, 'l_prism is not convex')
+    end associate
+  end subroutine test_new_shapes_and_materials
 
   logical function same_body(a, b)
     type(body_spec_t), intent(in) :: a, b
@@ -223,7 +344,10 @@ contains
                 all(a%velocity == b%velocity) .and. all(a%angular_velocity == b%angular_velocity) .and. &
                 (a%fixed .eqv. b%fixed) .and. all(a%copies == b%copies) .and. all(a%spacing == b%spacing) .and. &
                 a%seed == b%seed .and. a%jitter_position == b%jitter_position .and. &
-                a%jitter_angle == b%jitter_angle .and. a%jitter_velocity == b%jitter_velocity
+                a%jitter_angle == b%jitter_angle .and. a%jitter_velocity == b%jitter_velocity .and. &
+                a%minor_radius == b%minor_radius .and. a%tube_segments == b%tube_segments .and. &
+                a%thickness == b%thickness .and. all(a%inertia == b%inertia) .and. &
+                a%restitution == b%restitution .and. a%friction == b%friction
   end function same_body
 
   !> Same lines, apart from the '! deck:' line that names the file.
@@ -504,6 +628,124 @@ contains
       [character(len=60) :: 'bad_no_value.nml:1:', '&run:', '''t_end ='' has no value'])
     call bad('bad_amp.nml', [character(len=100) :: run, '& shape = 1 /', ball], &
       [character(len=60) :: 'bad_amp.nml:2:', '''&'' without a group name'])
+
+    ! The tetrahedron, torus and L prism: their variables, and theirs refused elsewhere.
+    call bad('bad_tet_size2.nml', [character(len=100) :: run, &
+      '&body name = ''t'', shape = ''tetrahedron'', size(1) = 1, density = 1,', ' size(2) = 1 /'], &
+      [character(len=60) :: 'bad_tet_size2.nml:3:', '&body #1 ''t''', 'size(2) and size(3) do not apply'])
+    call bad('bad_tet_size3.nml', [character(len=100) :: run, &
+      '&body name = ''t'', shape = ''tetrahedron'', density = 1,', ' size = 1, 1, 1 /'], &
+      [character(len=60) :: 'bad_tet_size3.nml:3:', '&body #1 ''t''', 'takes its edge length as size(1)'])
+    call bad('bad_tet_no_size.nml', [character(len=100) :: run, ball, &
+      '&body name = ''t'', shape = ''tetrahedron'', density = 1 /'], &
+      [character(len=60) :: 'bad_tet_no_size.nml:3:', '&body #2 ''t''', 'a tetrahedron needs its edge length'])
+    call bad('bad_tet_edge.nml', [character(len=100) :: run, &
+      '&body name = ''t'', shape = ''tetrahedron'', density = 1,', ' size(1) = -0.5 /'], &
+      [character(len=60) :: 'bad_tet_edge.nml:3:', '&body #1 ''t''', 'edge length) must be > 0 m, got -0.5'])
+    call bad('bad_tet_radius.nml', [character(len=100) :: run, &
+      '&body name = ''t'', shape = ''tetrahedron'', size(1) = 1, density = 1,', ' radius = 1 /'], &
+      [character(len=60) :: 'bad_tet_radius.nml:3:', '&body #1 ''t''', 'radius does not apply to shape ''tetrahedron''', &
+       'takes size(1)'])
+    call bad('bad_torus_no_radius.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''torus'', minor_radius = 0.1, density = 1 /'], &
+      [character(len=60) :: 'bad_torus_no_radius.nml:2:', '&body #1 ''o''', 'a torus needs radius [m]'])
+    call bad('bad_torus_no_minor.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''torus'', radius = 1, density = 1 /'], &
+      [character(len=60) :: 'bad_torus_no_minor.nml:2:', '&body #1 ''o''', 'a torus needs minor_radius [m]'])
+    call bad('bad_torus_minor.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''torus'', radius = 1, density = 1,', ' minor_radius = 0 /'], &
+      [character(len=60) :: 'bad_torus_minor.nml:3:', '&body #1 ''o''', 'minor_radius must be > 0 m, got 0.0'])
+    call bad('bad_torus_no_hole.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''torus'', radius = 1, density = 1,', ' minor_radius = 1 /'], &
+      [character(len=60) :: 'bad_torus_no_hole.nml:3:', '&body #1 ''o''', &
+       'minor_radius = 1.0 m must be < radius = 1.0 m'])
+    call bad('bad_torus_segments.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''torus'', radius = 1, minor_radius = 0.5, density = 1,', ' segments = 2 /'], &
+      [character(len=60) :: 'bad_torus_segments.nml:3:', '&body #1 ''o''', 'segments must be >= 3, got 2'])
+    call bad('bad_tube_segments.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''torus'', radius = 1, minor_radius = 0.5, density = 1,', ' tube_segments = 2 /'], &
+      [character(len=60) :: 'bad_tube_segments.nml:3:', '&body #1 ''o''', 'tube_segments must be >= 3, got 2'])
+    call bad('bad_tube_segments_type.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''torus'', radius = 1, minor_radius = 0.5, density = 1,', ' tube_segments = 8.5 /'], &
+      [character(len=60) :: 'bad_tube_segments_type.nml:3:', '&body #1 ''o''', 'tube_segments needs a whole number'])
+    call bad('bad_torus_faces.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''torus'', radius = 1, minor_radius = 0.5, density = 1,', &
+      ' segments = 100000, tube_segments = 100000 /'], &
+      [character(len=60) :: 'bad_torus_faces.nml:3:', '&body #1 ''o''', 'makes more than 2147483647 faces'])
+    call bad('bad_torus_size.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''torus'', radius = 1, minor_radius = 0.5, density = 1,', ' size(3) = 1 /'], &
+      [character(len=60) :: 'bad_torus_size.nml:3:', '&body #1 ''o''', 'size does not apply to shape ''torus''', &
+       'a torus takes radius, minor_radius'])
+    call bad('bad_minor_radius_sphere.nml', [character(len=100) :: run, &
+      '&body name = ''s'', shape = ''sphere'', radius = 1, density = 1,', ' minor_radius = 0.5 /'], &
+      [character(len=60) :: 'bad_minor_radius_sphere.nml:3:', '&body #1 ''s''', &
+       'minor_radius does not apply to shape ''sphere'''])
+    call bad('bad_tube_segments_cylinder.nml', [character(len=100) :: run, &
+      '&body name = ''c'', shape = ''cylinder'', radius = 1, size(3) = 1, density = 1,', ' tube_segments = 8 /'], &
+      [character(len=60) :: 'bad_tube_segments_cylinder.nml:3:', '&body #1 ''c''', &
+       'tube_segments does not apply to shape ''cylinder'''])
+    call bad('bad_thickness_box.nml', [character(len=100) :: run, &
+      '&body name = ''b'', shape = ''box'', size = 1, 1, 1, density = 1,', ' thickness = 0.1 /'], &
+      [character(len=60) :: 'bad_thickness_box.nml:3:', '&body #1 ''b''', 'thickness does not apply to shape ''box'''])
+    call bad('bad_thickness_mesh.nml', [character(len=100) :: run, &
+      '&body name = ''m'', shape = ''mesh'', mesh_file = ''sub/meshes/cube.obj'', density = 1,', ' thickness = 0.1 /'], &
+      [character(len=60) :: 'bad_thickness_mesh.nml:3:', '&body #1 ''m''', 'thickness does not apply to shape ''mesh'''])
+    call bad('bad_l_no_thickness.nml', [character(len=100) :: run, &
+      '&body name = ''l'', shape = ''l_prism'', size = 1, 1, 1, density = 1 /'], &
+      [character(len=60) :: 'bad_l_no_thickness.nml:2:', '&body #1 ''l''', 'an l_prism needs thickness [m]'])
+    call bad('bad_l_thickness.nml', [character(len=100) :: run, &
+      '&body name = ''l'', shape = ''l_prism'', size = 1, 1, 1, density = 1,', ' thickness = -0.1 /'], &
+      [character(len=60) :: 'bad_l_thickness.nml:3:', '&body #1 ''l''', 'thickness must be > 0 m, got -0.1'])
+    call bad('bad_l_thick.nml', [character(len=100) :: run, &
+      '&body name = ''l'', shape = ''l_prism'', size = 2, 0.5, 1, density = 1,', ' thickness = 0.5 /'], &
+      [character(len=60) :: 'bad_l_thick.nml:3:', '&body #1 ''l''', &
+       'thickness = 0.5 m must be < min(size(1), size(2)) = 0.5 m'])
+    call bad('bad_l_size.nml', [character(len=100) :: run, &
+      '&body name = ''l'', shape = ''l_prism'', thickness = 0.1, density = 1,', ' size(1:2) = 1, 1 /'], &
+      [character(len=60) :: 'bad_l_size.nml:3:', '&body #1 ''l''', 'an l_prism needs all three lengths', &
+       'size(3) is missing'])
+    call bad('bad_l_size_negative.nml', [character(len=100) :: run, &
+      '&body name = ''l'', shape = ''l_prism'', thickness = 0.1, density = 1,', ' size = 1, -1, 1 /'], &
+      [character(len=60) :: 'bad_l_size_negative.nml:3:', '&body #1 ''l''', 'size(2) must be > 0 m'])
+    call bad('bad_l_segments.nml', [character(len=100) :: run, &
+      '&body name = ''l'', shape = ''l_prism'', size = 1, 1, 1, thickness = 0.1, density = 1,', ' segments = 8 /'], &
+      [character(len=60) :: 'bad_l_segments.nml:3:', '&body #1 ''l''', 'segments does not apply to shape ''l_prism''', &
+       'an l_prism takes size = x, y, z and thickness'])
+    call bad('bad_shape_torus.nml', [character(len=100) :: run, &
+      '&body name = ''o'', shape = ''tours'', radius = 1, density = 1 /'], &
+      [character(len=60) :: 'bad_shape_torus.nml:2:', '&body #1 ''o''', 'unknown shape ''tours''', &
+       'did you mean ''torus''?', 'tetrahedron, torus, l_prism, mesh'])
+    call bad('bad_shape_l.nml', [character(len=100) :: run, &
+      '&body name = ''l'', shape = ''l-prism'', density = 1 /'], &
+      [character(len=60) :: 'bad_shape_l.nml:2:', '&body #1 ''l''', 'did you mean ''l_prism''?'])
+
+    ! Materials: -1 (the &contact value) or a valid value; rest_speed: -1 (auto) or >= 0.
+    call bad('bad_body_restitution.nml', [character(len=100) :: run, ball, &
+      '&body name = ''r'', shape = ''sphere'', radius = 1, density = 1,', ' restitution = 1.5 /'], &
+      [character(len=60) :: 'bad_body_restitution.nml:4:', '&body #2 ''r''', 'restitution must be in [0, 1]', &
+       'or -1 for the &contact value, got 1.5'])
+    call bad('bad_body_restitution_negative.nml', [character(len=100) :: run, &
+      '&body name = ''floor'', shape = ''box'', size = 1, 1, 1, fixed = t,', ' restitution = -0.5 /'], &
+      [character(len=60) :: 'bad_body_restitution_negative.nml:3:', '&body #1 ''floor''', &
+       'restitution must be in [0, 1]', 'got -0.5'])
+    call bad('bad_body_friction.nml', [character(len=100) :: run, &
+      '&body name = ''r'', shape = ''sphere'', radius = 1, density = 1,', ' friction = -2 /'], &
+      [character(len=60) :: 'bad_body_friction.nml:3:', '&body #1 ''r''', 'friction must be >= 0', &
+       'or -1 for the &contact value, got -2.0'])
+    call bad('bad_body_friction_nan.nml', [character(len=100) :: run, &
+      '&body name = ''r'', shape = ''sphere'', radius = 1, density = 1,', ' friction = nan /'], &
+      [character(len=60) :: 'bad_body_friction_nan.nml:3:', '&body #1 ''r''', 'friction must be a finite number'])
+    call bad('bad_body_friction_twice.nml', [character(len=100) :: run, &
+      '&body name = ''r'', shape = ''sphere'', radius = 1, density = 1, friction = 0.1,', ' friction = 0.2 /'], &
+      [character(len=60) :: 'bad_body_friction_twice.nml:3:', '&body #1 ''r''', 'friction is given twice'])
+    call bad('bad_rest_speed.nml', [character(len=100) :: run, ball, '&contact', ' rest_speed = -0.5 /'], &
+      [character(len=60) :: 'bad_rest_speed.nml:4:', '&contact:', 'rest_speed must be >= 0 m/s, or -1 for auto', &
+       'got -0.5'])
+    call bad('bad_rest_speed_type.nml', [character(len=100) :: run, ball, '&contact rest_speed = ''fast'' /'], &
+      [character(len=60) :: 'bad_rest_speed_type.nml:3:', '&contact:', 'rest_speed needs a number'])
+    call bad('bad_rest_speed_body.nml', [character(len=100) :: run, &
+      '&body name = ''r'', shape = ''sphere'', radius = 1, density = 1,', ' rest_speed = 0.1 /'], &
+      [character(len=60) :: 'bad_rest_speed_body.nml:3:', '&body #1 ''r''', 'unknown variable ''rest_speed'''])
 
     ! A deck that does not exist: an I/O error naming it.
     call err%clear()
