@@ -25,6 +25,7 @@ module collision_stage
   use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity
   use contact_solver, only: pgs_stats_t, solve_contacts_pgs
   use resting_contact, only: resting_contact_t
+  use contact_material, only: material_table_t
   use pair_geometry, only: pair_gap, gap_lower_bound, pair_contact_points
   use quaternion, only: quat_rotate_inverse
   implicit none
@@ -46,8 +47,6 @@ module collision_stage
     real(dp) :: tolerance = 0.0_dp           !< time-of-contact gap tolerance [m]
     real(dp) :: contact_tolerance = 0.0_dp   !< features within gap + this are contacts [m]
     real(dp) :: velocity_tolerance = 0.0_dp  !< approach speeds below this do not reflect [m/s]
-    real(dp) :: restitution = 0.0_dp
-    real(dp) :: friction = 0.0_dp            !< Coulomb mu
     real(dp) :: rest_speed = 0.0_dp          !< impacts slower than this are inelastic [m/s]
     integer :: max_iterations = 100
     integer :: max_rounds = 100
@@ -62,6 +61,7 @@ module collision_stage
     type(impulse_stats_t) :: impulses
     type(pgs_stats_t) :: impact_friction      !< friction solves at impacts
     type(resting_contact_t) :: resting        !< the contact pass of every step
+    type(material_table_t) :: materials       !< restitution and friction per &body group
     type(contact_t), allocatable :: contacts(:)
     integer(i8), allocatable :: keys(:, :)
     type(contact_feature_t), allocatable :: features(:)
@@ -113,12 +113,15 @@ contains
     self%tolerance = 0.1_dp*self%target
     self%contact_tolerance = self%target
     self%velocity_tolerance = 1.0e-9_dp
-    self%restitution = deck%contact%restitution
-    self%friction = deck%contact%friction
     ! Below this approach speed an impact is inelastic (docs/contact.md, "Resting contact"):
     ! the speed gravity adds in two steps, or the speed of a fall through the separation.
-    self%rest_speed = max(2.0_dp*norm2(deck%run%gravity)*deck%run%dt_max, &
-                          sqrt(2.0_dp*norm2(deck%run%gravity)*self%target))
+    if (deck%contact%rest_speed >= 0.0_dp) then
+      self%rest_speed = deck%contact%rest_speed
+    else
+      self%rest_speed = max(2.0_dp*norm2(deck%run%gravity)*deck%run%dt_max, &
+                            sqrt(2.0_dp*norm2(deck%run%gravity)*self%target))
+    end if
+    call self%materials%init(deck)
     self%resting%velocity_tolerance = self%velocity_tolerance
     call choose_box_size(extent, 1.0_dp, self%box_size, err)
     if (err%failed()) return
@@ -391,8 +394,9 @@ contains
       first = n_contacts + 1
       call pair_contact_points(shapes, bodies, i, j, gap, normal, self%contact_tolerance, self%contacts, self%keys, &
                                n_contacts, self%features)
-      self%contacts(first:n_contacts)%restitution = self%restitution
-      self%contacts(first:n_contacts)%friction = self%friction
+      self%contacts(first:n_contacts)%restitution = &
+        self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j))
+      self%contacts(first:n_contacts)%friction = self%materials%pair_friction(bodies%group_id(i), bodies%group_id(j))
     end do
   end subroutine gather_contacts
 

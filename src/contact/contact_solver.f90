@@ -5,9 +5,12 @@
 !> cone). One sweep visits every contact and, holding the others fixed, solves its own 3x3
 !> problem exactly:
 !>   - normal: lambda_n <- max(0, lambda_n - u_n / K_nn)      (no approach, no pull);
-!>   - tangential: lambda_t <- lambda_t - K_tt^(-1) u_t, then scaled back onto the cone
-!>     |lambda_t| <= mu lambda_n (stick if the cone allows it, else slide: the largest
-!>     friction impulse, against the slip);
+!>   - tangential: the impulse in the disc |lambda_t| <= mu lambda_n that dissipates the
+!>     most kinetic energy (maximal dissipation): lambda_t - K_tt^(-1) u_t if it lies in the
+!>     disc (stick), else the point of the circle minimising the energy, found as the
+!>     trust-region step -(K_tt + nu I)^(-1) g with nu >= 0 (slide). Merely scaling the
+!>     stick impulse back onto the circle would tilt friction away from the slip wherever
+!>     K_tt is not isotropic (a box's corner), and a sliding box would brake too little;
 !> with u the relative velocity at the contact and K = J M^(-1) J^T its 3x3 effective inverse
 !> mass (translation and rotation of both bodies). Sweeps repeat until no contact's update
 !> changes its own relative velocity by more than `tolerance` [m/s], or the sweep cap. (The
@@ -109,9 +112,8 @@ contains
         if (contacts(c)%friction > 0.0_dp) then
           u = relative_velocity(bodies, contacts(c))
           ut = matmul(transpose(basis(:, 2:3, c)), u)
-          new_t = lam(2:3, c) - solve2(k_tt(:, :, c), ut)
           limit = contacts(c)%friction*lam(1, c)
-          call clamp_to_cone(new_t, limit)
+          new_t = friction_update(k_tt(:, :, c), lam(2:3, c), ut, limit)
           dl(2:3) = new_t - lam(2:3, c)
           if (any(dl(2:3) /= 0.0_dp)) call apply(bodies, contacts(c), matmul(basis(:, 2:3, c), dl(2:3)))
           lam(2:3, c) = new_t
@@ -127,6 +129,39 @@ contains
       impulse(:, c) = matmul(basis(:, :, c), lam(:, c))
     end do
   end subroutine solve_contacts_pgs
+
+  !> New tangential impulse of one contact: minimises 1/2 x.K x + x.g over |x| <= limit,
+  !> with g = u_t - K lambda_old (the energy change of the contact as a function of its
+  !> new impulse x). Inside: x = -K^(-1) g. On the circle: x = -(K + nu I)^(-1) g with nu
+  !> the root of |x(nu)| = limit, found by Newton on 1/|x(nu)| - 1/limit (convex and
+  !> increasing in nu, so Newton from below converges monotonically; Moré and Sorensen).
+  pure function friction_update(k, lambda_old, ut, limit) result(x)
+    real(dp), intent(in) :: k(2, 2), lambda_old(2), ut(2), limit
+    real(dp) :: x(2), g(2), shifted(2, 2), dx(2), phi, dphi, nu, size_x
+    integer :: iteration
+    g = ut - matmul(k, lambda_old)
+    x = -solve2(k, g)
+    if (norm2(x) <= limit) return
+    if (limit <= 0.0_dp .or. norm2(g) == 0.0_dp) then
+      x = 0.0_dp
+      return
+    end if
+    nu = 0.0_dp
+    do iteration = 1, 50
+      shifted = k
+      shifted(1, 1) = shifted(1, 1) + nu
+      shifted(2, 2) = shifted(2, 2) + nu
+      x = -solve2(shifted, g)
+      size_x = norm2(x)
+      ! d|x|/dnu = -x.(K + nu I)^(-1) x / |x|
+      dx = solve2(shifted, x)
+      phi = 1.0_dp/size_x - 1.0_dp/limit
+      dphi = dot_product(x, dx)/size_x**3
+      if (abs(phi) <= 1.0e-14_dp/limit) exit
+      nu = max(nu - phi/dphi, 0.0_dp)
+    end do
+    x = x*(limit/norm2(x))   ! on the circle to round-off
+  end function friction_update
 
   pure subroutine clamp_to_cone(t, limit)
     real(dp), intent(inout) :: t(2)

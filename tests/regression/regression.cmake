@@ -37,6 +37,14 @@ if(RICOCHET_USE_HDF5)
     ricochet_python_case(${deck} check_collisions.py ${case} $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${deck})
   endforeach()
+  foreach(case incline_slide incline_stick sliding_stop rolling_sphere box_on_box ball_rest)
+    set(deck ${case})
+    if(case STREQUAL ball_rest)
+      set(deck bouncing_ball_rest)
+    endif()
+    ricochet_python_case(${case} check_resting.py ${case} $<TARGET_FILE:ricochet>
+                         ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${case})
+  endforeach()
   ricochet_python_case(bouncing_mesh_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/bouncing_mesh_ball.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_bouncing_mesh_ball
                        ${PROJECT_SOURCE_DIR}/input/meshes/icosphere_face_down.obj)

@@ -1,0 +1,111 @@
+"""Resting-contact and friction validation decks through the whole program
+(input/validation/; docs/contact.md, "Resting contact" and "Friction"):
+
+  incline_slide   cube on a 30 degree incline, mu = 0.3: slides with a = g (sin - mu cos),
+                  fitted from the frames, to 0.5%
+  incline_stick   the same with mu = 0.7 (> tan 30): creeps less than 1e-6 m in 2 s
+  sliding_stop    cube at 2 m/s on a floor, mu = 0.4: stops after v0^2/(2 mu g) to 1%
+  rolling_sphere  sphere sliding at 2 m/s without spin, mu = 0.2: ends rolling at 5/7 v0
+                  to 1%, with omega r = v
+  ball_rest       bouncing ball (e = 0.8) past its accumulation point t = 4.06 s: at rest
+                  after finitely many bounces (< 30 events), in whole steps afterwards
+  box_on_box      a box on a box on a floor at rest: steps per simulated second within a
+                  factor 1.25 of 1/dt_max (whole steps), no drift
+  stack           10 cubes stacked (stack_10_cubes.nml), 10 s: top cube drifts < 1e-3 m
+  pyramid         15-box pyramid (pyramid_15.nml), 10 s: no box drifts more than 1e-3 m
+
+Why the tolerances hold with margin: a body under resting contact moves with the constant
+acceleration the contact solve gives it over each step, which is exact for the constant
+forces of these cases (sliding friction, weight), so the measured accelerations, stopping
+distances and final speeds carry only the error of the step in which sliding stops
+(at most mu g dt^2/2 = 2e-6 m here) and the contact solver's tolerance (1e-9 m/s). A
+solver that let friction depend on the step or lost the normal force would miss them by
+far (a sliding block with the wrong normal impulse is off by tens of percent).
+
+Usage: check_resting.py CASE EXE DECK WORKDIR"""
+import math
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from ricochet_run import Checks, frames, history, run
+
+G = 9.81
+case, exe, deck, work = sys.argv[1:5]
+out = os.path.join(work, "out")
+proc = run(exe, deck, out)
+c = Checks()
+fr = frames(out)
+h = history(out)
+c.check(float(np.min(h["min_separation"])) > 0.0, f"smallest separation positive: {np.min(h['min_separation']):.3e}")
+times = np.array([t for t, _ in fr])
+pos = np.array([b["position"].reshape(-1, 3) for _, b in fr])     # (frame, body, 3)
+vel = np.array([b["velocity"].reshape(-1, 3) for _, b in fr])
+omg = np.array([b["angular_velocity"].reshape(-1, 3) for _, b in fr])
+
+if case in ("incline_slide", "incline_stick"):
+    phi = math.radians(30.0)
+    down = np.array([math.cos(phi), 0.0, -math.sin(phi)])       # down the slope
+    normal = np.array([math.sin(phi), 0.0, math.cos(phi)])
+    s = pos[:, 1] @ down
+    lift = pos[:, 1] @ normal
+    c.check(float(np.ptp(lift)) < 1e-6, f"the block stays on the incline: normal motion {np.ptp(lift):.2e} m")
+    if case == "incline_slide":
+        mu = 0.3
+        a_exact = G * (math.sin(phi) - mu * math.cos(phi))
+        a_fit = 2.0 * np.polyfit(times, s, 2)[0]
+        err = abs(a_fit - a_exact) / a_exact
+        print(f"incline: a = {a_fit:.6f} m/s^2, analytic {a_exact:.6f} (relative error {err:.2e})")
+        c.check(err < 5e-3, f"acceleration g (sin - mu cos) to 0.5% (got {a_fit:.6f}, want {a_exact:.6f})")
+    else:
+        creep = float(np.max(np.linalg.norm(pos[:, 1] - pos[0, 1], axis=1)))
+        print(f"incline stick: creep {creep:.3e} m over {times[-1]:.1f} s")
+        c.check(creep < 1e-6, f"the block sticks: creep {creep:.3e} m < 1e-6 m")
+elif case == "sliding_stop":
+    mu, v0 = 0.4, 2.0
+    travel = float(pos[-1, 1, 0] - pos[0, 1, 0])
+    want = v0 * v0 / (2 * mu * G)
+    err = abs(travel - want) / want
+    print(f"sliding stop: {travel:.6f} m, analytic {want:.6f} m (relative error {err:.2e})")
+    c.check(err < 1e-2, f"stopping distance v0^2/(2 mu g) to 1% (got {travel:.6f}, want {want:.6f})")
+    c.check(float(np.linalg.norm(vel[-1, 1])) < 1e-9, f"at rest at the end: |v| = {np.linalg.norm(vel[-1, 1]):.2e}")
+elif case == "rolling_sphere":
+    v0, r = 2.0, 0.1
+    v_end = float(vel[-1, 1, 0])
+    err = abs(v_end - 5.0 / 7.0 * v0) / (5.0 / 7.0 * v0)
+    print(f"rolling: v = {v_end:.6f} m/s, 5/7 v0 = {5 / 7 * v0:.6f} (relative error {err:.2e}), omega r = {omg[-1, 1, 1] * r:.6f}")
+    c.check(err < 1e-2, f"rolls at 5/7 v0 to 1% (got {v_end:.6f})")
+    # Rolling without slip holds at the contact point, which sits in the middle of the gap,
+    # r + gap/2 from the centre (gap 1.05e-5 m): omega r = v (1 - gap/(2r)), 5e-5 relative.
+    c.check(abs(omg[-1, 1, 1] * (r + 0.525e-5) - v_end) < 1e-9 * v0,
+            f"rolls without slipping at the contact point: omega_y (r + gap/2) = v_x "
+            f"({omg[-1, 1, 1] * (r + 0.525e-5):.9f} vs {v_end:.9f})")
+elif case == "ball_rest":
+    events = int(h["events"][-1])
+    rest = times > 4.2
+    print(f"ball: {events} events; height at the end {pos[-1, 1, 2]:.9f} m; {int(h['steps'][-1])} steps")
+    c.check(events < 30, f"finitely many bounces: {events} events")
+    c.check(float(np.max(np.abs(vel[rest, 1]))) < 1e-9, "at rest after the accumulation point")
+    c.check(abs(float(pos[-1, 1, 2]) - 0.1) < 3e-6, f"resting on the floor: centre at {pos[-1, 1, 2]:.9f} m")
+    c.check(int(h["steps"][-1]) < 1.1 * 6.0 / 1e-2 + 60, "whole steps at rest")
+elif case == "box_on_box":
+    dt_max = 1.0e-2
+    steps = float(h["steps"][-1])
+    t_end = float(h["time"][-1])
+    factor = steps / (t_end / dt_max)
+    print(f"box on box: {int(steps)} steps in {t_end} s, {factor:.3f} x t_end/dt_max")
+    c.check(factor < 1.25, f"whole steps at rest: {factor:.3f} x t_end/dt_max")
+    drift = float(np.max(np.linalg.norm(pos[:, 1:] - pos[0, 1:], axis=2)))
+    c.check(drift < 1e-6, f"nothing moves: drift {drift:.2e} m")
+elif case in ("stack", "pyramid"):
+    drift = np.linalg.norm(pos[-1, 1:] - pos[0, 1:], axis=1)
+    top = int(np.argmax(pos[0, 1:, 2])) + 1
+    print(f"{case}: top drift {drift[top - 1]:.3e} m, largest {drift.max():.3e} m after {times[-1]:.1f} s; "
+          f"{int(h['steps'][-1])} steps")
+    c.check(float(drift.max()) < 1e-3, f"everything stands: largest drift {drift.max():.3e} m < 1e-3 m")
+    c.check(float(np.max(np.linalg.norm(vel[-1, 1:], axis=1))) < 1e-3, "at rest at the end")
+else:
+    sys.exit(f"unknown case {case}")
+c.finish()
