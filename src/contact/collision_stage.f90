@@ -47,6 +47,10 @@ module collision_stage
     real(dp) :: tolerance = 0.0_dp           !< time-of-contact gap tolerance [m]
     real(dp) :: contact_tolerance = 0.0_dp   !< features within gap + this are contacts [m]
     real(dp) :: velocity_tolerance = 0.0_dp  !< approach speeds below this do not reflect [m/s]
+    !> A pair in the contact band whose contact points approach slower than this settles
+    !> towards the floor (bounded by conservative advancement) instead of stopping the step
+    !> at once: contact solvers leave residuals of this order in large groups [m/s].
+    real(dp) :: settle_speed = 0.0_dp
     real(dp) :: rest_speed = 0.0_dp          !< impacts slower than this are inelastic [m/s]
     integer :: max_iterations = 100
     integer :: max_rounds = 100
@@ -57,6 +61,7 @@ module collision_stage
     integer, allocatable :: event_pairs(:, :) !< pairs that reached contact at the step's end
     integer :: n_events = 0
     integer :: zero_steps = 0                !< consecutive steps of length 0 (stall guard)
+    real(dp) :: pass_step = 0.0_dp           !< the step the last contact pass gave gravity for [s]
     type(collision_stats_t) :: stats
     type(impulse_stats_t) :: impulses
     type(pgs_stats_t) :: impact_friction      !< friction solves at impacts
@@ -68,6 +73,7 @@ module collision_stage
   contains
     procedure :: init => stage_init
     procedure :: contact_pass => stage_contact_pass
+    procedure :: return_unused_gravity => stage_return_unused_gravity
     procedure :: limit_step => stage_limit_step
     procedure :: earliest_contact => stage_earliest_contact
     procedure :: resolve => stage_resolve
@@ -122,6 +128,7 @@ contains
                             sqrt(2.0_dp*norm2(deck%run%gravity)*self%target))
     end if
     call self%materials%init(deck)
+    self%settle_speed = max(self%velocity_tolerance, 1.0e-3_dp*self%rest_speed)
     self%resting%velocity_tolerance = self%velocity_tolerance
     call choose_box_size(extent, 1.0_dp, self%box_size, err)
     if (err%failed()) return
@@ -229,7 +236,7 @@ contains
       normal0 = pair_normal(:, k)
       motion = pair_motion(shapes, bodies, flight, i, j, gravity)
       if (band_rate(motion, normal0) <= self%velocity_tolerance) cycle
-      if (approaching(self, bodies, shapes, i, j, gap0)) cycle
+      if (approaching(self, bodies, shapes, i, j, gap0, normal0)) cycle
       receding(k) = .true.
       if (gap0 <= 0.5_dp*self%target + self%tolerance) then
         if (separate_pair(self, bodies, shapes, flight, k, pair_gap0)) then
@@ -288,38 +295,28 @@ contains
     end if
   end function band_rate
 
-  !> Does any contact point of the pair (features within the contact tolerance) approach?
-  logical function approaching(self, bodies, shapes, i, j, gap)
-    type(collision_stage_t), intent(in) :: self
+  !> Does any contact point of the pair approach? The same contact points as resolve
+  !> builds (pair_contact_points), so that a pair resolve has made non-approaching is seen
+  !> as such here.
+  logical function approaching(self, bodies, shapes, i, j, gap, normal)
+    type(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(in) :: bodies
     type(shape_library_t), intent(in) :: shapes
     integer, intent(in) :: i, j
-    real(dp), intent(in) :: gap
-    type(contact_feature_t), allocatable :: features(:)
-    integer :: f, n_features
-    real(dp) :: normal(3), sphere_gap, p(3)
-    approaching = .true.
-    associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
-      if (si%kind == SHAPE_SPHERE .or. sj%kind == SHAPE_SPHERE) then
-        ! one contact point, in the middle of the gap on the normal (as resolve builds it)
-        call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
-                      sphere_gap, normal)
-        if (si%kind == SHAPE_SPHERE) then
-          p = bodies%x(:, i) + (si%radius + 0.5_dp*sphere_gap)*normal
-        else
-          p = bodies%x(:, j) - (sj%radius + 0.5_dp*sphere_gap)*normal
-        end if
-        approaching = normal_velocity(bodies, contact_t(a=i, b=j, point=p, normal=normal)) < -self%velocity_tolerance
+    real(dp), intent(in) :: gap, normal(3)
+    type(contact_t), allocatable :: points(:)
+    integer(i8), allocatable :: keys(:, :)
+    integer :: c, n_points
+    n_points = 0
+    call pair_contact_points(shapes, bodies, i, j, gap, normal, self%contact_tolerance, points, keys, n_points, &
+                             self%features)
+    approaching = .false.
+    do c = 1, n_points
+      if (normal_velocity(bodies, points(c)) < -self%settle_speed) then
+        approaching = .true.
         return
       end if
-      call find_contact_features(si%tree, bodies%x(:, i), bodies%q(:, i), sj%tree, bodies%x(:, j), bodies%q(:, j), &
-                                 gap + self%contact_tolerance, features, n_features)
-      do f = 1, n_features
-        if (normal_velocity(bodies, contact_t(a=i, b=j, point=0.5_dp*(features(f)%point_a + features(f)%point_b), &
-                                              normal=features(f)%normal)) < -self%velocity_tolerance) return
-      end do
-    end associate
-    approaching = .false.
+    end do
   end function approaching
 
   !> Distance correction (a receding pair that has settled to the floor, where the bound
@@ -414,9 +411,10 @@ contains
     real(dp), allocatable :: lower(:, :), upper(:, :)
     logical, allocatable :: persistent(:)
     integer :: n, i, n_contacts, c, kept
-    real(dp) :: r
+    real(dp) :: r, u, separating_limit
     n = bodies%n_owned + bodies%n_ghost
     n_contacts = 0
+    self%pass_step = h
     if (n >= 2 .and. h > 0.0_dp) then
       allocate (lower(3, n), upper(3, n))
       do i = 1, n
@@ -436,8 +434,12 @@ contains
     kept = 0
     if (n_contacts > 0) then
       allocate (persistent(n_contacts))
+      ! Contacts separating faster than gravity can close in the step need no impulse; leaving
+      ! them out keeps a body that bounces off the floor on its exact parabola.
+      separating_limit = 2.0_dp*norm2(gravity)*h + self%velocity_tolerance
       do c = 1, n_contacts
-        persistent(c) = normal_velocity(bodies, self%contacts(c)) >= -self%rest_speed
+        u = normal_velocity(bodies, self%contacts(c))
+        persistent(c) = u >= -self%rest_speed .and. u <= separating_limit
       end do
       kept = count(persistent)
       if (kept < n_contacts) then
@@ -453,6 +455,30 @@ contains
       end do
     end if
   end subroutine stage_contact_pass
+
+  !> The contact pass gave the bodies it pushed the velocity change of the whole planned
+  !> step (gravity's impulse and the contact impulses that answer it); when an event (or the
+  !> grid) cut the step short, the part for the time not taken is taken back: the velocity
+  !> becomes v_start + (h_taken/h) dv, so cut steps do not pump energy in. That is a convex
+  !> combination of the start velocity and the solved one, so a persistent contact that
+  !> approached at neither does not approach now. The motion over the step was the one
+  !> conservative advancement checked; only the velocities change.
+  subroutine stage_return_unused_gravity(self, bodies, flight, h_taken, gravity)
+    class(collision_stage_t), intent(in) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(free_flight_t), intent(inout) :: flight
+    real(dp), intent(in) :: h_taken, gravity(3)
+    real(dp) :: unused
+    integer :: i
+    if (h_taken >= self%pass_step) return
+    unused = 1.0_dp - h_taken/self%pass_step
+    do i = 1, bodies%n_owned
+      if (bodies%fixed(i) .or. .not. flight%loaded(i)) cycle
+      bodies%v(:, i) = bodies%v(:, i) - unused*self%resting%dv(:, i)
+      bodies%w(:, i) = bodies%w(:, i) - unused*self%resting%dw(:, i)
+      call flight%release(i)
+    end do
+  end subroutine stage_return_unused_gravity
 
   !> After the bodies moved to the event: contact points of every pair in contact (the
   !> event pairs, and every candidate pair touching them, so a group is solved together),

@@ -94,7 +94,12 @@ contains
       lam(1, c) = max(lam(1, c), 0.0_dp)
       if (contacts(c)%friction <= 0.0_dp) lam(2:3, c) = 0.0_dp
       call clamp_to_cone(lam(2:3, c), contacts(c)%friction*lam(1, c))
-      p = matmul(basis(:, :, c), lam(:, c))
+      ! (with fixed normal impulses, those have been applied already by the caller)
+      if (tangential_only) then
+        p = matmul(basis(:, 2:3, c), lam(2:3, c))
+      else
+        p = matmul(basis(:, :, c), lam(:, c))
+      end if
       call apply(bodies, contacts(c), p)
     end do
 

@@ -45,6 +45,8 @@ module impulse_solver
     integer :: max_rounds_seen = 0
     integer :: cap_hits = 0           !< groups whose elastic loop hit the cap
     integer :: nnls_iterations = 0
+    integer :: nnls_unconverged = 0   !< solves stopped at the cap (feasible, not optimal: the
+                                      !< next time of contact catches any leftover approach)
   end type impulse_stats_t
 
 contains
@@ -163,6 +165,7 @@ contains
     real(dp), allocatable :: e_matrix(:, :), vt0(:), vt_inelastic(:), vt_elastic(:), lambda(:), u(:)
     logical, allocatable :: approaching(:)
     integer :: n_members, m, i, k, round, iterations
+    logical :: converged
     real(dp) :: restitution
 
     m = size(contacts)
@@ -198,8 +201,9 @@ contains
     ! Inelastic projection over all contacts of the group.
     allocate (lambda(m), lambda_elastic(m))
     lambda_elastic = 0.0_dp
-    call solve_nnls(e_matrix, -vt0, lambda, iterations, err)
+    call solve_nnls(e_matrix, -vt0, lambda, iterations, err, converged)
     if (err%failed()) return
+    if (.not. converged) stats%nnls_unconverged = stats%nnls_unconverged + 1
     stats%nnls_iterations = stats%nnls_iterations + iterations
     vt_inelastic = vt0 + matmul(e_matrix, lambda)
 
@@ -224,8 +228,9 @@ contains
           active = pack([(i, i=1, m)], approaching)
           sub = e_matrix(:, active)
           allocate (sub_lambda(size(sub, 2)))
-          call solve_nnls(sub, -2.0_dp*vt_elastic, sub_lambda, iterations, err)
+          call solve_nnls(sub, -2.0_dp*vt_elastic, sub_lambda, iterations, err, converged)
           if (err%failed()) return
+          if (.not. converged) stats%nnls_unconverged = stats%nnls_unconverged + 1
           stats%nnls_iterations = stats%nnls_iterations + iterations
           vt_elastic = vt_elastic + matmul(sub, sub_lambda)
           lambda_elastic(active) = lambda_elastic(active) + sub_lambda

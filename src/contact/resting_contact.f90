@@ -5,13 +5,16 @@
 !> Contacts in the contact band that are not approaching faster than the rest speed are
 !> *persistent*. For the bodies they touch, gravity's impulse over the coming step h is
 !> added (v* = v + g h) and the persistent contacts are solved at velocity level with e = 0
-!> and Coulomb friction, so that no persistent contact approaches at the end of the step.
-!> The impulse found is then spread over the step as a constant contact force: the body
-!> moves with acceleration a = g + dv/h from its velocity at the start of the step, which
-!> is exact for constant forces (a block sliding down an incline, a stack under its weight)
-!> and ends the step with the solved velocity. The change of angular velocity is applied at
-!> once. A body at rest on a floor therefore has a = 0: conservative advancement sees no
-!> closing motion and the step stays at dt_max instead of collapsing into micro-bounces.
+!> and Coulomb friction, so that no persistent contact approaches. A body the contacts push
+!> then moves over the step at its new velocity and angular velocity, with no further
+!> acceleration (symplectic Euler: velocities exact for constant forces, positions first
+!> order). Both velocities change at the start of the step, so every contact point's
+!> velocity is the solved one throughout the step, never an approaching mixture. A body at
+!> rest on a floor therefore moves not at all: conservative advancement sees no closing
+!> motion and the step stays at dt_max instead of collapsing into micro-bounces. (Spreading
+!> the linear impulse over the step as a constant force is exact for positions too, but
+!> the angular impulse cannot be spread under the torque-free exact rotation, and the mix
+!> makes rotating bodies' contact points approach at the step's start.)
 !>
 !> Solvers: a frictionless group of up to exact_limit contacts gets the exact inelastic
 !> projection of impulse_solver (the original method, order-free and symmetric); groups
@@ -44,11 +47,12 @@ module resting_contact
     real(dp) :: tolerance = 1.0e-9_dp      !< PGS: velocity change per sweep that ends it [m/s]
     integer :: max_sweeps = 30             !< PGS sweep cap (the exact projection finishes)
     integer :: exact_limit = 64            !< largest frictionless group solved exactly
-    integer :: projection_limit = 400      !< largest group whose PGS residual is projected away
+    integer :: projection_limit = 4000     !< largest group whose PGS residual is projected away
     real(dp) :: velocity_tolerance = 1.0e-9_dp   !< [m/s]
     integer(i8), allocatable :: cache_keys(:, :) !< sorted keys of the last PGS contacts
     real(dp), allocatable :: cache_force(:, :)   !< their contact forces, world [N]
     integer :: n_cache = 0
+    real(dp), allocatable :: dv(:, :), dw(:, :)  !< velocity changes the last pass gave [m/s, rad/s]
     type(resting_stats_t) :: stats
     type(pgs_stats_t) :: pgs
     type(impulse_stats_t) :: exact
@@ -174,7 +178,14 @@ contains
     self%cache_force = new_force(:, order)
     self%n_cache = n_new
 
-    ! Loads: the velocity change becomes a constant force over the step.
+    ! A body the contacts pushed keeps its new velocity and moves at it over the step (its
+    ! gravity for the step is already in it): zero acceleration, released to re-anchor.
+    ! A body they did not push gets its start-of-step velocity back and flies on its
+    ! exact parabola.
+    if (allocated(self%dv)) then
+      if (size(self%dv, 2) < n_bodies) deallocate (self%dv, self%dw)
+    end if
+    if (.not. allocated(self%dv)) allocate (self%dv(3, n_bodies), self%dw(3, n_bodies))
     do i = 1, bodies%n_owned
       if (bodies%fixed(i)) cycle
       if (.not. involved(i)) then
@@ -182,12 +193,14 @@ contains
         cycle
       end if
       dv = bodies%v(:, i) - (v_start(:, i) + h*gravity)
-      if (any(bodies%w(:, i) /= w_start(:, i))) call flight%release(i)
-      bodies%v(:, i) = v_start(:, i)
-      if (all(dv == 0.0_dp)) then
+      self%dv(:, i) = bodies%v(:, i) - v_start(:, i)
+      self%dw(:, i) = bodies%w(:, i) - w_start(:, i)
+      if (all(dv == 0.0_dp) .and. all(bodies%w(:, i) == w_start(:, i))) then
+        bodies%v(:, i) = v_start(:, i)
         call flight%clear_load(i)
       else
-        call flight%set_load(i, gravity + dv/h)
+        call flight%release(i)
+        call flight%set_load(i, [0.0_dp, 0.0_dp, 0.0_dp])
         self%stats%loaded = self%stats%loaded + 1
       end if
     end do

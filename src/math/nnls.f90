@@ -25,13 +25,16 @@ module nnls
 
 contains
 
-  !> x >= 0 minimising |E x - f|; iterations counts outer steps. err is set if the
-  !> iteration cap (3 n + 10, far above the finite bound met in practice) is reached.
-  subroutine solve_nnls(e, f, x, iterations, err)
+  !> x >= 0 minimising |E x - f|; iterations counts outer steps. At the iteration cap
+  !> (3 n + 10: rank-deficient problems, such as many contact points on few bodies, can make
+  !> the active set cycle) the loop stops with the last feasible x (x >= 0, not optimal)
+  !> and converged = .false. when the argument is present, else err is set.
+  subroutine solve_nnls(e, f, x, iterations, err, converged)
     real(dp), intent(in) :: e(:, :), f(:)
     real(dp), intent(out) :: x(:)
     integer, intent(out) :: iterations
     type(error_t), intent(inout) :: err
+    logical, intent(out), optional :: converged
     integer :: m, n, n_passive, j, t, max_iterations, inner
     logical :: passive(size(e, 2))
     real(dp) :: w(size(e, 2)), z(size(e, 2)), residual(size(e, 1)), tolerance, alpha, ratio
@@ -42,6 +45,7 @@ contains
     x = 0.0_dp
     passive = .false.
     iterations = 0
+    if (present(converged)) converged = .true.
     max_iterations = 3*n + 10
     ! Dual-feasibility tolerance relative to the problem's scale: round-off in E^T r is about
     ! eps |E| |f|; 100 eps keeps the loop from chasing noise.
@@ -52,7 +56,11 @@ contains
       if (all(passive) .or. .not. any(.not. passive .and. w > tolerance)) exit
       iterations = iterations + 1
       if (iterations > max_iterations) then
-        call err%set(ERR_NUMERIC, 'NNLS did not converge in '//str(max_iterations)//' iterations')
+        if (present(converged)) then
+          converged = .false.
+        else
+          call err%set(ERR_NUMERIC, 'NNLS did not converge in '//str(max_iterations)//' iterations')
+        end if
         return
       end if
       t = maxloc(w, dim=1, mask=.not. passive)
