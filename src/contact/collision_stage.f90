@@ -61,10 +61,12 @@ module collision_stage
     integer, allocatable :: event_pairs(:, :) !< pairs that reached contact at the step's end
     integer :: n_events = 0
     integer :: zero_steps = 0                !< consecutive steps of length 0 (stall guard)
+    integer(i8) :: stalled_pair(2) = 0       !< global ids of the last pair that stopped a step at once
     real(dp) :: pass_step = 0.0_dp           !< the step the last contact pass gave gravity for [s]
     type(collision_stats_t) :: stats
     type(impulse_stats_t) :: impulses
     type(pgs_stats_t) :: impact_friction      !< friction solves at impacts
+    type(pgs_stats_t) :: residual_pgs         !< safety-net solves after unconverged projections
     type(resting_contact_t) :: resting        !< the contact pass of every step
     type(material_table_t) :: materials       !< restitution and friction per &body group
     type(contact_t), allocatable :: contacts(:)
@@ -267,6 +269,9 @@ contains
       if (res%capped) self%stats%capped = self%stats%capped + 1
       if (res%contact .or. res%capped) then
         pair_time(k) = res%time
+        if (res%time == 0.0_dp) then
+          self%stalled_pair = [bodies%gid(i), bodies%gid(j)]
+        end if
         ! Later pairs only need to be advanced up to the earliest time found so far.
         h_event = min(h_event, res%time)
       end if
@@ -409,7 +414,7 @@ contains
     real(dp), intent(in) :: h, gravity(3)
     type(error_t), intent(inout) :: err
     real(dp), allocatable :: lower(:, :), upper(:, :)
-    logical, allocatable :: persistent(:)
+    logical, allocatable :: persistent(:), held(:)
     integer :: n, i, n_contacts, c, kept
     real(dp) :: r, u, separating_limit
     n = bodies%n_owned + bodies%n_ghost
@@ -437,9 +442,22 @@ contains
       ! Contacts separating faster than gravity can close in the step need no impulse; leaving
       ! them out keeps a body that bounces off the floor on its exact parabola.
       separating_limit = 2.0_dp*norm2(gravity)*h + self%velocity_tolerance
+      allocate (held(n))
+      held = .false.
       do c = 1, n_contacts
         u = normal_velocity(bodies, self%contacts(c))
         persistent(c) = u >= -self%rest_speed .and. u <= separating_limit
+        if (persistent(c)) then
+          held(self%contacts(c)%a) = .not. bodies%fixed(self%contacts(c)%a)
+          held(self%contacts(c)%b) = .not. bodies%fixed(self%contacts(c)%b)
+        end if
+      end do
+      ! ... but a body the pass will push keeps all its contacts in the band as constraints,
+      ! or the push could turn a separating contact of it into an approaching one.
+      do c = 1, n_contacts
+        if (persistent(c)) cycle
+        if (held(self%contacts(c)%a) .or. held(self%contacts(c)%b)) &
+          persistent(c) = normal_velocity(bodies, self%contacts(c)) >= -self%rest_speed
       end do
       kept = count(persistent)
       if (kept < n_contacts) then
@@ -455,6 +473,26 @@ contains
       end do
     end if
   end subroutine stage_contact_pass
+
+  !> Safety net after the impulse solvers: the exact projection can stop at its iteration cap
+  !> on rank-deficient groups (many contact points on few bodies), leaving contacts that
+  !> still approach, which would stop the next step at once. Frictionless projected
+  !> Gauss-Seidel (monotone, convergent for any positive semi-definite contact matrix)
+  !> removes what is left down to a thousandth of the settle speed.
+  subroutine remove_residual_approach(self, bodies, contacts)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(contact_t), intent(in) :: contacts(:)
+    type(contact_t), allocatable :: frictionless(:)
+    real(dp), allocatable :: impulse(:, :)
+    integer :: c
+    if (.not. any([(normal_velocity(bodies, contacts(c)) < -self%settle_speed, c=1, size(contacts))])) return
+    frictionless = contacts
+    frictionless%friction = 0.0_dp
+    allocate (impulse(3, size(contacts)))
+    impulse = 0.0_dp
+    call solve_contacts_pgs(bodies, frictionless, impulse, 1.0e-3_dp*self%settle_speed, 5000, self%residual_pgs)
+  end subroutine remove_residual_approach
 
   !> The contact pass gave the bodies it pushed the velocity change of the whole planned
   !> step (gravity's impulse and the contact impulses that answer it); when an event (or the
@@ -532,13 +570,15 @@ contains
         if (err%failed()) return
       end if
     end if
+    call remove_residual_approach(self, bodies, self%contacts(1:n_contacts))
     do i = 1, bodies%n_owned
       if (any(v_old(:, i) /= bodies%v(:, i)) .or. any(w_old(:, i) /= bodies%w(:, i))) call flight%release(i)
     end do
     ! A step of length zero that changed nothing cannot be followed by another.
     if (self%zero_steps > 1000) then
       call err%set(ERR_NUMERIC, 'collision loop stalled: 1000 steps of zero length at a persistent contact '// &
-                   '(smallest separation '//str(self%stats%min_separation)//' m)')
+                   'between bodies '//str(self%stalled_pair(1))//' and '//str(self%stalled_pair(2))// &
+                   ' (smallest separation '//str(self%stats%min_separation)//' m)')
     end if
   end subroutine stage_resolve
 

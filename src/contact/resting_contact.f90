@@ -178,10 +178,11 @@ contains
     self%cache_force = new_force(:, order)
     self%n_cache = n_new
 
-    ! A body the contacts pushed keeps its new velocity and moves at it over the step (its
-    ! gravity for the step is already in it): zero acceleration, released to re-anchor.
-    ! A body they did not push gets its start-of-step velocity back and flies on its
-    ! exact parabola.
+    ! A body in a persistent contact keeps its new velocity and moves at it over the step
+    ! (its gravity for the step is already in it): zero acceleration, released to re-anchor.
+    ! All of them, pushed or not: a body left on its parabola would start the step slower
+    ! by g h than one beside it, and their contact would approach at the step's start.
+    ! Bodies in no persistent contact fly on their exact parabolas.
     if (allocated(self%dv)) then
       if (size(self%dv, 2) < n_bodies) deallocate (self%dv, self%dw)
     end if
@@ -195,14 +196,9 @@ contains
       dv = bodies%v(:, i) - (v_start(:, i) + h*gravity)
       self%dv(:, i) = bodies%v(:, i) - v_start(:, i)
       self%dw(:, i) = bodies%w(:, i) - w_start(:, i)
-      if (all(dv == 0.0_dp) .and. all(bodies%w(:, i) == w_start(:, i))) then
-        bodies%v(:, i) = v_start(:, i)
-        call flight%clear_load(i)
-      else
-        call flight%release(i)
-        call flight%set_load(i, [0.0_dp, 0.0_dp, 0.0_dp])
-        self%stats%loaded = self%stats%loaded + 1
-      end if
+      call flight%release(i)
+      call flight%set_load(i, [0.0_dp, 0.0_dp, 0.0_dp])
+      if (any(dv /= 0.0_dp)) self%stats%loaded = self%stats%loaded + 1
     end do
   end subroutine resting_solve
 
