@@ -63,10 +63,11 @@ module deck_reader
   type(var_spec_t), parameter :: contact_vars(4) = [ &
     var_spec_t('restitution', V_REAL, 1, 0), var_spec_t('friction', V_REAL, 1, 0), &
     var_spec_t('min_separation', V_REAL, 1, 0), var_spec_t('rest_speed', V_REAL, 1, 0)]
-  type(var_spec_t), parameter :: output_vars(6) = [ &
+  type(var_spec_t), parameter :: output_vars(7) = [ &
     var_spec_t('dir', V_CHARACTER, 1, len(output_default%dir)), var_spec_t('interval', V_REAL, 1, 0), &
     var_spec_t('checkpoint_interval', V_REAL, 1, 0), var_spec_t('progress_interval', V_REAL, 1, 0), &
-    var_spec_t('history_interval', V_REAL, 1, 0), var_spec_t('write_frames', V_LOGICAL, 1, 0)]
+    var_spec_t('history_interval', V_REAL, 1, 0), var_spec_t('write_frames', V_LOGICAL, 1, 0), &
+    var_spec_t('check_overlaps', V_LOGICAL, 1, 0)]
   type(var_spec_t), parameter :: body_vars(26) = [ &
     var_spec_t('name', V_CHARACTER, 1, len(body_default%name)), &
     var_spec_t('shape', V_CHARACTER, 1, len(body_default%shape)), &
@@ -1262,11 +1263,12 @@ contains
     type(group_input_t) :: g
     character(len=len(config%dir)) :: dir
     real(dp) :: interval, checkpoint_interval, progress_interval, history_interval
-    logical :: write_frames
+    logical :: write_frames, check_overlaps
     character(len=:), allocatable :: resolved
     integer :: ios
     character(len=512) :: msg
-    namelist /output/ dir, interval, checkpoint_interval, progress_interval, history_interval, write_frames
+    namelist /output/ dir, interval, checkpoint_interval, progress_interval, history_interval, write_frames, &
+      check_overlaps
 
     call open_group(src, group, output_vars, '&output', g)
     call prepare_group(g, err)
@@ -1277,6 +1279,7 @@ contains
     progress_interval = config%progress_interval
     history_interval = config%history_interval
     write_frames = config%write_frames
+    check_overlaps = config%check_overlaps
     msg = ''
     read (g%text, nml=output, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -1288,6 +1291,7 @@ contains
     config%progress_interval = progress_interval
     config%history_interval = history_interval
     config%write_frames = write_frames
+    config%check_overlaps = check_overlaps
 
     call require_finite(g, err, 'interval', [interval])
     call require_finite(g, err, 'history_interval', [history_interval])
@@ -2053,6 +2057,7 @@ contains
     if (deck%output%history_interval == DECK_AUTO) note = '[s] -1: auto, interval/10'
     call put_real(unit, 'history_interval', [deck%output%history_interval], note)
     call put_logical(unit, 'write_frames', deck%output%write_frames)
+    call put_logical(unit, 'check_overlaps', deck%output%check_overlaps)
     write (unit, '(a)') '/'
     if (.not. allocated(deck%bodies)) return
     do k = 1, deck%n_bodies

@@ -45,6 +45,7 @@ module input_config
     real(dp) :: progress_interval = 10.0_dp        !< [s of wall time] between progress lines
     real(dp) :: history_interval = -1.0_dp         !< [s] between history rows; auto: interval/10
     logical :: write_frames = .true.               !< .false.: history and checkpoints only
+    logical :: check_overlaps = .false.            !< exact overlap test of all bodies at every frame
   end type output_config_t
 
   !> One &body group: a body, or a lattice of copies of it.

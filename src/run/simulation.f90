@@ -340,8 +340,10 @@ contains
     call self%history%write(par, rec, err)
     ! Conservation errors relative to the initial kinetic plus |potential| energy scale, and
     ! to the momentum scale: meaningful whatever the origin of the potential.
+    ! (or, for a system that starts at rest at zero potential, the energy it has released)
     scale = max(self%initial%kinetic_translational + self%initial%kinetic_rotational + &
-                abs(self%initial%potential), tiny(1.0_dp))
+                abs(self%initial%potential), now%kinetic_translational + now%kinetic_rotational, &
+                abs(now%potential - self%initial%potential), tiny(1.0_dp))
     self%max_energy_error = max(self%max_energy_error, abs(now%energy() - self%initial%energy())/scale)
     expected_p = self%initial%momentum + self%initial%mass*self%deck%run%gravity*self%time
     scale = max(norm2(self%initial%momentum), norm2(expected_p), tiny(1.0_dp))
@@ -357,6 +359,10 @@ contains
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
+    if (self%deck%output%check_overlaps .and. par%n_ranks == 1) then
+      call check_initial_overlaps(self%deck, self%shapes, self%bodies, err, time=self%time)
+      if (err%failed()) return
+    end if
     if (.not. self%deck%output%write_frames) then
       self%next_output = huge(1.0_dp)     ! no frames: steps need not land on output times
       return

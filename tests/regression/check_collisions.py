@@ -5,6 +5,10 @@
   billiards   16-ball break, e = 1: momentum to 1e-12, kinetic energy to 1e-10 relative
   tunnelling  1 cm cube at 1e4 m/s at a 1 mm plate: never through, gap always positive
   cube_drop   cube dropped flat, e = 0.5: rebounds at e v (apex e^2 h0), no spin, no drift
+  tori_chain  3 interlocked non-convex tori, the first fixed, falling: the program's exact
+              overlap test passes on every output frame (&output check_overlaps, which
+              stops the run on any interpenetration), links stay linked (centres within
+              2 (R - r) = 0.16 m) and the chain swings down
   spinning_elastic / spinning_inelastic   two spinning cubes (0.2 m, 1000 kg/m^3) meeting
               edge on edge (e = 1) or vertex on face (e = 0.5), no gravity: linear and
               angular momentum conserved to 1e-12; energy kept (e = 1) or lost (e < 1)
@@ -18,6 +22,7 @@ splits, order 0.1).
 Usage: check_collisions.py CASE EXE DECK WORKDIR"""
 import math
 import os
+import re
 import sys
 
 import numpy as np
@@ -82,6 +87,14 @@ elif case == "cube_drop":
     c.check(len(apexes) > 10, "frames during the first rebound")
     worst = max(abs(a - e * e * h0) / (e * e * h0) for a in apexes)
     c.check(worst < 1e-8, f"rebound apex e^2 h0 to 1e-8 relative (worst {worst:.2e})")
+elif case == "tori_chain":
+    c.check(re.search(r"check_overlaps\s*=\s*\.true\.", open(deck).read(), re.I) is not None,
+            "the deck asks the program to test every frame for overlaps")
+    pos = np.array([b["position"].reshape(-1, 3) for _, b in fr])   # bodies: floor, anchor, a, b
+    worst = max(float(np.max(np.linalg.norm(pos[:, k + 1] - pos[:, k], axis=1))) for k in (1, 2))
+    c.check(worst < 0.16, f"links stay linked: largest neighbour centre distance {worst:.4f} m < 0.16 m")
+    c.check(float(pos[-1, 3, 2]) < -0.05, f"the chain swings down: last link at z = {pos[-1, 3, 2]:.3f} m")
+    c.check(len(fr) >= 15, f"every frame written and tested ({len(fr)})")
 elif case.startswith("spinning"):
     m = 1000.0 * 0.2 ** 3
     inertia = m * 0.2 ** 2 / 6.0          # a cube's inertia is isotropic: J w = I w
