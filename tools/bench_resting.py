@@ -66,6 +66,7 @@ CLEARANCE = 0.005       # smallest initial gap, body to body and body to wall, g
 REST_RATIO = 1.0e-6     # at rest: kinetic energy < REST_RATIO * potential energy released
 PILE_T_CAP = 10.0       # simulated time cap of a pile [s]
 PILE_CHECK_DT = 0.01    # simulated time between rest checks [s]
+PILE_HOLD = 1.0         # simulated time watched after the first time at rest [s]
 DECK_DIR = os.path.join(ROOT, 'input', 'validation')
 DECK_T_PILE = 3.0       # t_end of the pile decks [s] (the Python runs go on to rest)
 DECK_DT_MAX = 1.0e-2    # dt_max of every deck [s]
@@ -567,9 +568,12 @@ def run_fixed(e, sc, t_end):
                 drift_xy=dxy.tolist(), drift_z=d[:, 2].tolist(), drift_3d=np.linalg.norm(d, axis=1).tolist())
 
 
-def run_pile(e, sc, t_cap, budget):
-    """Pour: step until the kinetic energy is below REST_RATIO of the potential energy
-    released (checked every PILE_CHECK_DT), t_cap, or `budget` seconds of stepping."""
+def run_pile(e, sc, t_cap, budget, hold=PILE_HOLD):
+    """Pour: step until the kinetic energy of the bodies in play is below REST_RATIO of the
+    potential energy they released (checked every PILE_CHECK_DT), t_cap, or `budget`
+    seconds of stepping. After the first time at rest, go on for `hold` simulated seconds
+    (within the caps) and keep the largest energy ratio and body speed seen: whether the
+    pile stays at rest or only passed through a quiet moment."""
     dt, step = e.build(sc)
     sh, c = sc.shape, sc.container
     z0 = e.positions()[:, 2]
@@ -577,8 +581,9 @@ def run_pile(e, sc, t_cap, budget):
     pen_every = 1 if sc.n <= 200 else 5
     nmax = int(round(t_cap / dt))
     tstep, dmin, k, t_rest, stop = 0.0, math.inf, 0, None, None
+    k_end, hold_ratio, hold_speed = nmax, 0.0, 0.0
     ke_hist = []
-    while k < nmax:
+    while k < k_end:
         t0 = time.perf_counter()
         step()
         tstep += time.perf_counter() - t0
@@ -590,10 +595,14 @@ def run_pile(e, sc, t_cap, budget):
             ok = in_play(x, c)
             ke = kinetic_energy(sh, v[ok], w[ok])
             released = sh.mass * G * float(np.sum(z0[ok] - x[ok, 2]))
+            ratio = ke / released if released > 0 else math.inf
             ke_hist.append((k * dt, ke, released, int((~ok).sum())))
-            if released > 0 and ke < REST_RATIO * released:
+            if t_rest is not None:
+                hold_ratio = max(hold_ratio, ratio)
+                hold_speed = max(hold_speed, float(np.max(np.linalg.norm(v[ok], axis=1), initial=0.0)))
+            elif ratio < REST_RATIO:
                 t_rest = k * dt
-                break
+                k_end = min(nmax, k + int(round(hold / dt)))
             if tstep > budget:
                 stop = 'wall budget'
                 break
@@ -607,10 +616,31 @@ def run_pile(e, sc, t_cap, budget):
     ke, released = ke_hist[-1][1:3] if ke_hist else (math.nan, math.nan)
     return dict(dt=dt, steps=k, t_sim=t_sim, wall_step=tstep, wall_per_sim_s=tstep / t_sim,
                 sim_s_per_wall_s=t_sim / tstep, max_pen=max(0.0, -dmin), pen_every=pen_every, t_rest=t_rest,
-                stopped=stop, ke_over_released=ke / released if released > 0 else math.nan,
+                hold=(t_sim - t_rest) if t_rest is not None else 0.0, hold_max_ratio=hold_ratio,
+                hold_max_speed=hold_speed, stopped=stop,
+                ke_over_released=ke / released if released > 0 else math.nan,
                 left=int(out.sum()), n=sc.n, height=height, depth=height / sh.h,
                 phi=len(inside) * sh.volume / (c['side'] ** 2 * height) if height > 0 else 0.0,
                 container=c, ke_history=ke_hist[::10])
+
+
+def pile_row(r):
+    label = {'l_shapes': 'L-prisms'}.get(r['pile'], r['pile'])
+    if r['t_rest'] is None:
+        rest = 'not at rest at %.2f s (%s; KE/released %.1e)' % (
+            r['t_sim'], r['stopped'] or 'time cap', r['ke_over_released'])
+        hold = '-'
+    else:
+        rest = '%.2f s' % r['t_rest']
+        hold = '%.1e, %.2g m/s (%.2g s)' % (r['hold_max_ratio'], r['hold_max_speed'], r['hold'])
+    return '| pile %d %s (box %.2f m) | %s | %.3g | %.3g | %s | %s | %s | %s | %d | %.1f h_b, phi %.2f |' % (
+        r['n'], label, r['container']['side'], r['engine'], r['dt'], r['sim_s_per_wall_s'],
+        be.fmt(r['wall_per_sim_s']), be.fmt(r['max_pen']), rest, hold, r['left'], r['depth'], r['phi'])
+
+
+PILE_HDR = ('| scene | engine | dt [s] | simulated s per wall s | wall s per simulated s | largest penetration [m] '
+            '| time to rest | after rest: largest KE/released, speed (for) | bodies that left | pile depth |\n'
+            '|---|---|---|---|---|---|---|---|---|---|\n')
 
 
 # ----------------------------------------------------------------------------- driver
@@ -630,6 +660,7 @@ def main():
     ap.add_argument('--engines', nargs='+', default=['pybullet', 'mujoco'])
     ap.add_argument('--t-cap', type=float, default=PILE_T_CAP, help='simulated time cap of a pile [s]')
     ap.add_argument('--budget', type=float, default=300.0, help='stepping wall time cap of one pile run [s]')
+    ap.add_argument('--hold', type=float, default=PILE_HOLD, help='simulated time watched after rest [s]')
     ap.add_argument('--rest-gap', type=float, default=REST_GAP,
                     help='start gap of resting faces in stack and pyramid [m]; 0: touching, as the engines '
                          'allow (not the decks: ricochet refuses touching bodies)')
@@ -702,36 +733,32 @@ def main():
         be.write_md(jpath, json.dumps(results, indent=1))
 
     if 'piles' in a.scenes:
-        rows, runs = [], []
+        # Runs of other engines or piles from earlier invocations stay in the table.
+        runs = results['runs'].get('piles', [])
         for kind in a.piles:
             sc = pile_scene(kind, a.quick, a.pile_n)
-            c = sc.container
             for e in engines:
                 t0 = time.perf_counter()
-                r = run_pile(e, sc, a.t_cap, a.budget)
+                r = dict(engine=e.name, pile=kind, **run_pile(e, sc, a.t_cap, a.budget, a.hold))
                 r['wall_total'] = time.perf_counter() - t0
                 r['settings'] = e.settings()
-                runs.append(dict(engine=e.name, pile=kind, **r))
-                rest = ('%.2f s' % r['t_rest'] if r['t_rest'] else
-                        'not at rest at %.2f s (%s; KE/released %.1e)' % (
-                            r['t_sim'], r['stopped'] or 'time cap', r['ke_over_released']))
-                line = '| pile %d %s (box %.2f m) | %s | %.3g | %.2f | %s | %s | rest %s; left %d; depth %.1f h_b, phi %.2f |' % (
-                    sc.n, {'l_shapes': 'L-prisms'}.get(kind, kind), c['side'], e.name, r['dt'], r['sim_s_per_wall_s'],
-                    be.fmt(r['wall_per_sim_s']), be.fmt(r['max_pen']), rest, r['left'], r['depth'], r['phi'])
-                print(line, flush=True)
-                rows.append(line)
-        results['runs']['piles'] = runs
-        md = ('Piles poured into an open-top box until the kinetic energy is below %g of the potential energy '
-              'released (checked every %g s) or %g s simulated; engine default time step, friction %g. '
-              'Left: bodies whose centre ended outside the container. Depth: pile height (95th percentile of the '
-              'centres + h_b/2) in body heights h_b; phi: volume fraction below that height. '
-              'Penetration checked after every step (every 5th step above 200 bodies). '
-              'tools/bench_resting.py, docs/bench/engines.md.\n\n'
-              % (REST_RATIO, PILE_CHECK_DT, a.t_cap, MU) + HDR % 'time to rest; bodies that left; pile' +
-              '\n'.join(rows) + '\n')
+                runs = [q for q in runs if (q['engine'], q['pile'], q['n']) != (e.name, kind, sc.n)] + [r]
+                print(pile_row(r), flush=True)
+                results['runs']['piles'] = runs
+                be.write_md(jpath, json.dumps(results, indent=1))   # after every run: nothing lost
+        order = {k: i for i, k in enumerate(PILE_SPECS)}
+        runs.sort(key=lambda q: (order.get(q['pile'], 9), q['n'], q['engine'] != 'pybullet', q['engine']))
+        md = ('Piles poured into an open-top box until the kinetic energy of the bodies in play is below %g of the '
+              'potential energy they released (checked every %g s), or %g s simulated, or %g s of stepping; then '
+              'watched for %g s more: the largest KE/released and body speed in that time say whether the pile '
+              'stays at rest. Engine default time step, friction %g. Bodies that left: centre outside the '
+              'container at the end. Pile depth: height (95th percentile of the centres inside + h_b/2) in body '
+              'heights h_b, and the volume fraction phi below it. Penetration checked after every step (every 5th '
+              'step above 200 bodies). tools/bench_resting.py, docs/bench/engines.md.\n\n'
+              % (REST_RATIO, PILE_CHECK_DT, a.t_cap, a.budget, a.hold, MU) + PILE_HDR +
+              '\n'.join(pile_row(q) for q in runs) + '\n')
         be.write_md(os.path.join(a.out, 'engines_piles%s.md' % sfx), md)
         be.write_md(jpath, json.dumps(results, indent=1))
-
 
 if __name__ == '__main__':
     main()
