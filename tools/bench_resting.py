@@ -17,21 +17,25 @@ Scenes, all with gravity 9.81 m/s^2, Coulomb friction 0.5 on every pair, restitu
   piles     N bodies poured from a jittered lattice into an open-top box: 1000 cubes,
             1000 regular tetrahedra (edge 0.15 m), 200 L-prisms (0.2 x 0.2 x 0.1 m, arms
             0.07 m; PyBullet and MuJoCo: a compound of two boxes); until the kinetic energy
-            is below 1e-6 of the potential energy released, or 10 s simulated: time to
-            rest, bodies that left the container, pile depth.
+            is below 1e-6 of the potential energy released, or 10 s simulated, or a
+            stepping budget (then 1 s more is watched): time to rest, bodies that left
+            the container, pile depth.
 
 Timing, penetration and engine settings follow tools/bench_engines.py (whose engine classes
 this script extends): time.perf_counter around the engine's step call only, per simulated
 second; penetration = the most negative contact distance the engine reports after a step.
 
-    .venv/bin/python tools/bench_resting.py                  # all scenes, full size
-    .venv/bin/python tools/bench_resting.py --quick          # smaller piles, ~2 min
+    .venv/bin/python tools/bench_resting.py                  # all scenes, full size (~20 min)
+    .venv/bin/python tools/bench_resting.py --quick          # smaller piles, ~1 min
+    .venv/bin/python tools/bench_resting.py --scenes stack pyramid --rest-gap 0   # touching
     .venv/bin/python tools/bench_resting.py --scenes pyramid --engines mujoco
     .venv/bin/python tools/bench_resting.py --write-decks    # input/validation/*.nml
     .venv/bin/python tools/bench_resting.py --check-decks    # decks on disk == scenes?
 
 Writes docs/bench/engines_<scene>.md (engines_<scene>_quick.md with --quick) and the raw
-numbers with each engine's settings to docs/bench/engines_resting[_quick].json.
+numbers with each engine's settings to docs/bench/engines_resting[_quick].json. Pile runs
+of other engines or piles already in that JSON stay in the pile table (`--engines` with no
+name only rewrites it).
 """
 import argparse
 import json
@@ -56,8 +60,8 @@ L_SIZE = (0.2, 0.2, 0.1)  # L-prism outer size x, y and extrusion z [m]
 L_T = 0.07              # L-prism arm thickness [m]
 REST_GAP = 1.0e-4       # vertical gap between faces that rest on each other at t = 0 [m]
 PYR_GAP = 1.0e-3        # horizontal gap between the boxes of a pyramid row [m]
-STACK_N, STACK_T = 10, 10.0
-PYR_ROWS, PYR_T = (5, 4, 3, 2, 1), 10.0
+STACK_N, STACK_T = 10, 10.0            # cubes, simulated time [s]
+PYR_ROWS, PYR_T = (5, 4, 3, 2, 1), 10.0  # cubes per row from the bottom, simulated time [s]
 WALL_T = be.WALL_T      # container wall and floor thickness [m]
 PILE_DEPTH = 5.0        # pile depth aimed at, in body heights h_b [-]
 PILE_SEED = 2024        # jitter seed of the first lattice group of a pile (then +1, +2)
@@ -65,6 +69,7 @@ JITTER_POS = 0.005      # largest lattice jitter per axis [m]
 CLEARANCE = 0.005       # smallest initial gap, body to body and body to wall, guaranteed [m]
 REST_RATIO = 1.0e-6     # at rest: kinetic energy < REST_RATIO * potential energy released
 PILE_T_CAP = 10.0       # simulated time cap of a pile [s]
+PILE_BUDGET = 300.0     # default wall-clock cap on the stepping of one pile run [s]
 PILE_CHECK_DT = 0.01    # simulated time between rest checks [s]
 PILE_HOLD = 1.0         # simulated time watched after the first time at rest [s]
 DECK_DIR = os.path.join(ROOT, 'input', 'validation')
@@ -627,8 +632,8 @@ def run_pile(e, sc, t_cap, budget, hold=PILE_HOLD):
 def pile_row(r):
     label = {'l_shapes': 'L-prisms'}.get(r['pile'], r['pile'])
     if r['t_rest'] is None:
-        rest = 'not at rest at %.2f s (%s; KE/released %.1e)' % (
-            r['t_sim'], r['stopped'] or 'time cap', r['ke_over_released'])
+        why = ('%.0f s stepping budget' % r.get('budget', PILE_BUDGET)) if r['stopped'] else 'time cap'
+        rest = 'not at rest at %.2f s (%s; KE/released %.1e)' % (r['t_sim'], why, r['ke_over_released'])
         hold = '-'
     else:
         rest = '%.2f s' % r['t_rest']
@@ -657,9 +662,10 @@ def main():
     ap.add_argument('--scenes', nargs='+', default=['stack', 'pyramid', 'piles'])
     ap.add_argument('--piles', nargs='+', default=list(PILE_SPECS), help='cubes, tetrahedra, l_shapes')
     ap.add_argument('--pile-n', type=int, help='bodies per pile (overrides the sizes above)')
-    ap.add_argument('--engines', nargs='+', default=['pybullet', 'mujoco'])
+    ap.add_argument('--engines', nargs='*', default=['pybullet', 'mujoco'],
+                    help='none: only rewrite the pile tables from the JSON of earlier runs')
     ap.add_argument('--t-cap', type=float, default=PILE_T_CAP, help='simulated time cap of a pile [s]')
-    ap.add_argument('--budget', type=float, default=300.0, help='stepping wall time cap of one pile run [s]')
+    ap.add_argument('--budget', type=float, default=PILE_BUDGET, help='stepping wall time cap of one pile run [s]')
     ap.add_argument('--hold', type=float, default=PILE_HOLD, help='simulated time watched after rest [s]')
     ap.add_argument('--rest-gap', type=float, default=REST_GAP,
                     help='start gap of resting faces in stack and pyramid [m]; 0: touching, as the engines '
@@ -705,7 +711,7 @@ def main():
 
     for scene, make, t_end, what in (('stack', stack_scene, STACK_T, 'top cube drift'),
                                      ('pyramid', pyramid_scene, PYR_T, 'largest drift of any cube')):
-        if scene not in a.scenes:
+        if scene not in a.scenes or not engines:
             continue
         rows, runs = [], []
         for e in engines:
@@ -719,7 +725,7 @@ def main():
                 col = '%.2e m horizontal (cube %d), %.2e m vertical' % (
                     max(r['drift_xy']), int(np.argmax(r['drift_xy'])) + 1, max(abs(z) for z in r['drift_z']))
             line = '| %s | %s | %.3g | %.0f | %s | %s | %s |' % (
-                scene, e.name, r['dt'], r['sim_s_per_wall_s'], be.fmt(r['wall_per_sim_s']), be.fmt(r['max_pen']), col)
+                scene + (' (touching)' if REST_GAP == 0 else ''), e.name, r['dt'], r['sim_s_per_wall_s'], be.fmt(r['wall_per_sim_s']), be.fmt(r['max_pen']), col)
             print(line, flush=True)
             rows.append(line)
         results['runs'][scene + gap_sfx] = runs
@@ -739,7 +745,7 @@ def main():
             sc = pile_scene(kind, a.quick, a.pile_n)
             for e in engines:
                 t0 = time.perf_counter()
-                r = dict(engine=e.name, pile=kind, **run_pile(e, sc, a.t_cap, a.budget, a.hold))
+                r = dict(engine=e.name, pile=kind, budget=a.budget, **run_pile(e, sc, a.t_cap, a.budget, a.hold))
                 r['wall_total'] = time.perf_counter() - t0
                 r['settings'] = e.settings()
                 runs = [q for q in runs if (q['engine'], q['pile'], q['n']) != (e.name, kind, sc.n)] + [r]
@@ -749,13 +755,14 @@ def main():
         order = {k: i for i, k in enumerate(PILE_SPECS)}
         runs.sort(key=lambda q: (order.get(q['pile'], 9), q['n'], q['engine'] != 'pybullet', q['engine']))
         md = ('Piles poured into an open-top box until the kinetic energy of the bodies in play is below %g of the '
-              'potential energy they released (checked every %g s), or %g s simulated, or %g s of stepping; then '
+              'potential energy they released (checked every %g s), or %g s simulated, or a budget of stepping '
+              'wall time (per row; default %g s); then '
               'watched for %g s more: the largest KE/released and body speed in that time say whether the pile '
               'stays at rest. Engine default time step, friction %g. Bodies that left: centre outside the '
               'container at the end. Pile depth: height (95th percentile of the centres inside + h_b/2) in body '
               'heights h_b, and the volume fraction phi below it. Penetration checked after every step (every 5th '
               'step above 200 bodies). tools/bench_resting.py, docs/bench/engines.md.\n\n'
-              % (REST_RATIO, PILE_CHECK_DT, a.t_cap, a.budget, a.hold, MU) + PILE_HDR +
+              % (REST_RATIO, PILE_CHECK_DT, a.t_cap, PILE_BUDGET, a.hold, MU) + PILE_HDR +
               '\n'.join(pile_row(q) for q in runs) + '\n')
         be.write_md(os.path.join(a.out, 'engines_piles%s.md' % sfx), md)
         be.write_md(jpath, json.dumps(results, indent=1))
