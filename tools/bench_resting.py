@@ -638,9 +638,10 @@ def pile_row(r):
     else:
         rest = '%.2f s' % r['t_rest']
         hold = '%.1e, %.2g m/s (%.2g s)' % (r['hold_max_ratio'], r['hold_max_speed'], r['hold'])
-    return '| pile %d %s (box %.2f m) | %s | %.3g | %.3g | %s | %s | %s | %s | %d | %.1f h_b, phi %.2f |' % (
+    depth = '%.1f h_b, phi %.2f' % (r['depth'], r['phi']) if r['t_rest'] is not None else '-'
+    return '| pile %d %s (box %.2f m) | %s | %.3g | %.3g | %s | %s | %s | %s | %d | %s |' % (
         r['n'], label, r['container']['side'], r['engine'], r['dt'], r['sim_s_per_wall_s'],
-        be.fmt(r['wall_per_sim_s']), be.fmt(r['max_pen']), rest, hold, r['left'], r['depth'], r['phi'])
+        be.fmt(r['wall_per_sim_s']), be.fmt(r['max_pen']), rest, hold, r['left'], depth)
 
 
 PILE_HDR = ('| scene | engine | dt [s] | simulated s per wall s | wall s per simulated s | largest penetration [m] '
