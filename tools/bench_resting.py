@@ -706,9 +706,11 @@ def main():
     jpath = os.path.join(a.out, 'engines_resting%s.json' % sfx)
     results = dict(machine=platform.platform(), python=platform.python_version(),
                    engines={e.name: e.version for e in engines}, quick=a.quick, runs={})
-    if os.path.exists(jpath):   # keep the scenes not run this time
+    if os.path.exists(jpath):   # keep the scenes and engines not run this time
         with open(jpath) as f:
-            results['runs'] = json.load(f).get('runs', {})
+            old = json.load(f)
+        results['runs'] = old.get('runs', {})
+        results['engines'] = dict(old.get('engines', {}), **results['engines'])
 
     for scene, make, t_end, what in (('stack', stack_scene, STACK_T, 'top cube drift'),
                                      ('pyramid', pyramid_scene, PYR_T, 'largest drift of any cube')):
