@@ -163,7 +163,7 @@ def tetrahedron_shape(a=TET_A):
     c = a / (2.0 * math.sqrt(2.0))
     verts = c * np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
     vol = a ** 3 / (6.0 * math.sqrt(2.0))
-    return Shape('tetrahedron', "shape = 'tetrahedron', size = %r" % a, vol, np.eye(3) * vol * a * a / 20.0,
+    return Shape('tetrahedron', "shape = 'tetrahedron', size(1) = %r" % a, vol, np.eye(3) * vol * a * a / 20.0,
                  a * math.sqrt(6.0) / 4.0, [-c] * 3, [c] * 3, a * math.sqrt(2.0 / 3.0), verts=verts)
 
 
