@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference collision scenes (gas, bouncing ball, stack) in PyBullet and MuJoCo.
+"""Reference collision scenes (gas, bouncing ball) in PyBullet and MuJoCo.
 
 For side-by-side comparison with ricochet's collision benchmarks; docs/bench/engines.md
 describes the scenes exactly.
@@ -10,7 +10,9 @@ Scenes (each takes a body count or a time step list):
          restitution 1 (MuJoCo: undamped contact spring, it has no restitution).
   ball   sphere r 0.1 m, bottom 1 m above a static floor, e = 0.8, g = 9.81: apexes of the
          first 5 bounces against h0 e^(2k), for time steps 1e-2 .. 1e-4 s.
-  stack  10 cubes (edge 0.1 m) on a floor, friction 0.5, gravity, 10 s: top-cube drift.
+
+The resting-contact scenes (the stack of 10 cubes, the pyramid, the piles) are in
+tools/bench_resting.py, which extends the engine classes below.
 
 Timing: time.perf_counter around the engine's step call only (set-up, contact queries and
 energy bookkeeping are outside); reported per simulated second. Penetration: the most
@@ -47,7 +49,6 @@ GAP = 0.005             # smallest initial clearance between bodies, and to wall
 SEED = 12345            # numpy default_rng seed of the gas initial state
 G = 9.81                # gravity [m/s^2]
 BALL_R, BALL_H0, BALL_E = 0.1, 1.0, 0.8
-STACK_N, STACK_MU, STACK_T = 10, 0.5, 10.0
 MJ_MAX_ARENA_MB = 4096  # largest MuJoCo arena this script asks for [MB]
 MJ_CONTACT_TIME = 0.02  # MuJoCo contact half-period for the spring standing in for e [s]
 
@@ -266,38 +267,6 @@ class Bullet:
                     max_pen=max(0.0, -dmin), apex=h,
                     rel_err=[(a - r) / r for a, r in zip(h, ref)])
 
-    def stack(self, t_end):
-        p, cid = self.p, self.cid
-        dt = self.reset(None, G)
-        mu = math.sqrt(STACK_MU)  # product combination: every pair gets STACK_MU
-        floor = p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid),
-                                  physicsClientId=cid)
-        self._dyn(floor, 0.0, mu)
-        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[CUBE_A / 2] * 3, physicsClientId=cid)
-        ids = []
-        for i in range(STACK_N):
-            b = p.createMultiBody(RHO * CUBE_A ** 3, col,
-                                  basePosition=[0, 0, CUBE_A / 2 + i * CUBE_A],
-                                  useMaximalCoordinates=True, physicsClientId=cid)
-            self._dyn(b, 0.0, mu)
-            ids.append(b)
-        top = lambda: np.array(p.getBasePositionAndOrientation(ids[-1], physicsClientId=cid)[0])
-        return self._run_stack(dt, t_end, lambda: p.stepSimulation(physicsClientId=cid), top)
-
-    def _run_stack(self, dt, t_end, step, top):
-        x0 = top()
-        nsteps = int(round(t_end / dt))
-        tstep, dmin = 0.0, math.inf
-        for k in range(nsteps):
-            t0 = time.perf_counter()
-            step()
-            tstep += time.perf_counter() - t0
-            dmin = min(dmin, self.min_dist())
-        x1 = top()
-        return dict(dt=dt, steps=nsteps, wall_per_sim_s=tstep / (nsteps * dt),
-                    max_pen=max(0.0, -dmin), drift_xy=float(np.hypot(*(x1 - x0)[:2])),
-                    drift_z=float((x1 - x0)[2]))
-
 
 # ----------------------------------------------------------------------------- MuJoCo
 
@@ -397,18 +366,6 @@ class Mujoco(Bullet):
         m, d = self.m, self.d
         return self._run_ball(dt, t_end, lambda: self.mj.mj_step(m, d), lambda: d.qpos[2])
 
-    def stack(self, t_end):
-        bodies = ''.join('<body pos="0 0 %.12g"><freejoint/><geom type="box" size="%g %g %g"/>'
-                         '</body>' % (CUBE_A / 2 + i * CUBE_A, *(CUBE_A / 2,) * 3)
-                         for i in range(STACK_N))
-        xml = ('<mujoco><default><geom density="%g" friction="%g 0.005 0.0001"/></default>'
-               '<worldbody><geom type="plane" size="5 5 0.1"/>%s</worldbody></mujoco>'
-               % (RHO, STACK_MU, bodies))
-        dt = self._load(xml)
-        m, d = self.m, self.d
-        top = lambda: d.qpos[7 * (STACK_N - 1):7 * (STACK_N - 1) + 3].copy()
-        return self._run_stack(dt, t_end, lambda: self.mj.mj_step(m, d), top)
-
 
 # ----------------------------------------------------------------------------- driver
 
@@ -472,8 +429,6 @@ class Ricochet:
     def ball(self, dt, t_end):
         raise NotImplementedError('ricochet runs the bouncing ball as input/validation/bouncing_ball.nml')
 
-    def stack(self, t_end):
-        raise NotImplementedError('resting contact (stacks) is not handled by ricochet yet')
 
 
 def fmt(x, spec='%.3g'):
@@ -491,9 +446,9 @@ def write_md(path, text):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--quick', action='store_true', help='gas up to N = 3000, three time steps (under a minute)')
-    ap.add_argument('--scenes', nargs='+', default=['gas', 'ball', 'stack'])
+    ap.add_argument('--scenes', nargs='+', default=['gas', 'ball'], help='gas, ball (the stack is in bench_resting.py)')
     ap.add_argument('--engines', nargs='+', default=['pybullet', 'mujoco'],
-                    help='pybullet, mujoco, ricochet (gas only: the ball is a validation deck, stacks need resting contact)')
+                    help='pybullet, mujoco, ricochet (gas only: the ball is a validation deck)')
     ap.add_argument('--gas-n', type=int, nargs='+', help='gas body counts')
     ap.add_argument('--gas-shapes', nargs='+', default=['sphere', 'cube'])
     ap.add_argument('--gas-t', type=float, help='simulated gas time [s]')
@@ -507,7 +462,6 @@ def main():
     gas_n = a.gas_n or ([100, 1000, 3000] if a.quick else [100, 1000, 3000, 10000, 30000, 100000])
     gas_t = a.gas_t or 1.0
     dts = a.dts or ([1e-2, 1e-3, 1e-4] if a.quick else [1e-2, 3e-3, 1e-3, 3e-4, 1e-4])
-    stack_t = STACK_T
 
     if a.dump_initial:
         os.makedirs(a.dump_initial, exist_ok=True)
@@ -587,19 +541,7 @@ def main():
         write_md(jpath, json.dumps(results, indent=1))
 
     if 'stack' in a.scenes:
-        rows = []
-        for e in engines:
-            r = e.stack(stack_t)
-            r['settings'] = e.settings()
-            results['runs'].setdefault('stack', []).append(dict(engine=e.name, t_end=stack_t, **r))
-            line = '| stack | %s | %g | %s | %s | top drift %.2e m horizontal, %+.2e m vertical |' % (
-                e.name, r['dt'], fmt(r['wall_per_sim_s']), fmt(r['max_pen']), r['drift_xy'], r['drift_z'])
-            print(line, flush=True)
-            rows.append(line)
-        md = ('Stack of %d cubes, %g s simulated, engine default time step.\n\n'
-              % (STACK_N, stack_t) + hdr % ('dt [s]', 'top cube drift') + '\n'.join(rows) + '\n')
-        write_md(os.path.join(a.out, 'engines_stack%s.md' % sfx), md)
-        write_md(jpath, json.dumps(results, indent=1))
+        print('the stack scene moved to tools/bench_resting.py (--scenes stack)', file=sys.stderr)
 
 
 if __name__ == '__main__':

@@ -9,6 +9,12 @@ foreach(deck IN LISTS shipped_decks)
   set_tests_properties(regression.check_deck.${name} PROPERTIES LABELS regression)
 endforeach()
 
+# The resting-contact decks are what tools/bench_resting.py writes, so that they stay the
+# scenes PyBullet and MuJoCo run there (needs only numpy).
+add_test(NAME regression.resting_decks_match
+         COMMAND ${RICOCHET_PYTHON} ${PROJECT_SOURCE_DIR}/tools/bench_resting.py --check-decks)
+set_tests_properties(regression.resting_decks_match PROPERTIES LABELS regression TIMEOUT 60)
+
 function(ricochet_python_case name script)
   set(workdir ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${name})
   file(MAKE_DIRECTORY ${workdir})
