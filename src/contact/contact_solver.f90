@@ -12,10 +12,11 @@
 !>     stick impulse back onto the circle would tilt friction away from the slip wherever
 !>     K_tt is not isotropic (a box's corner), and a sliding box would brake too little;
 !> with u the relative velocity at the contact and K = J M^(-1) J^T its 3x3 effective inverse
-!> mass (translation and rotation of both bodies). Sweeps repeat until no contact's update
-!> changes its own relative velocity by more than `tolerance` [m/s], or the sweep cap. (The
-!> test is on velocities, not impulses: face-to-face contacts give more points than the
-!> impulses need, so the impulses are not unique, while the velocities are.) Contacts are visited in the
+!> mass (translation and rotation of both bodies). Sweeps repeat until no body's velocity
+!> (|dv| + |dw| times its reach to its contacts) changes by more than `tolerance` [m/s] in a
+!> sweep, or the sweep cap. (The test is on the bodies' velocities, not on impulses: face-to-
+!> face contacts give more points than the impulses need, so the impulses are not unique
+!> and can drift between points while the velocities have converged.) Contacts are visited in the
 !> order given: the caller sorts them bottom-up along gravity, so in a stack the load is
 !> carried down in a few sweeps (the ordering half of shock propagation). Warm starts (the
 !> impulses of the same contacts at the previous step) make a resting stack converge in one
@@ -64,7 +65,8 @@ contains
   !> vectors); out, the impulses applied. Only the normal part is solved where `frictionless`.
   !> fixed_normal(m), when present, holds the normal impulses fixed (tangential solve only,
   !> with cone radius mu*fixed_normal): friction at an impact whose normal impulses are known.
-  subroutine solve_contacts_pgs(bodies, contacts, impulse, tolerance, max_sweeps, stats, fixed_normal)
+  !> warm_applied: the warm start is already in the velocities (do not apply it again).
+  subroutine solve_contacts_pgs(bodies, contacts, impulse, tolerance, max_sweeps, stats, fixed_normal, warm_applied)
     type(bodies_t), intent(inout) :: bodies
     type(contact_t), intent(in) :: contacts(:)
     real(dp), intent(inout) :: impulse(:, :)
@@ -72,7 +74,11 @@ contains
     integer, intent(in) :: max_sweeps
     type(pgs_stats_t), intent(inout) :: stats
     real(dp), intent(in), optional :: fixed_normal(:)
-    real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), lam(:, :)
+    logical, intent(in), optional :: warm_applied
+    logical :: apply_warm
+    real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), lam(:, :), v_prev(:, :), w_prev(:, :), reach(:)
+    integer, allocatable :: members(:)
+    integer :: n_members, b
     real(dp) :: k(3, 3), u(3), un, ut(2), dl(3), new_t(2), limit, change, p(3)
     integer :: m, c, sweep
     logical :: tangential_only
@@ -81,6 +87,8 @@ contains
     stats%solves = stats%solves + 1
     if (m == 0) return
     tangential_only = present(fixed_normal)
+    apply_warm = .true.
+    if (present(warm_applied)) apply_warm = .not. warm_applied
     allocate (basis(3, 3, m), k_nn(m), k_tt(2, 2, m), lam(3, m))
     do c = 1, m
       basis(:, 1, c) = contacts(c)%normal
@@ -100,11 +108,28 @@ contains
       else
         p = matmul(basis(:, :, c), lam(:, c))
       end if
-      call apply(bodies, contacts(c), p)
+      if (apply_warm) call apply(bodies, contacts(c), p)
     end do
 
+    ! The bodies of the group (moving ones), whose velocity changes per sweep end the loop:
+    ! with more contact points than the impulses need (four corners of a face), impulses
+    ! can drift between points while the velocities have long converged.
+    allocate (members(2*m))
+    n_members = 0
+    do c = 1, m
+      call enlist(contacts(c)%a)
+      call enlist(contacts(c)%b)
+    end do
+    allocate (v_prev(3, n_members), w_prev(3, n_members), reach(n_members))
+    do b = 1, n_members
+      reach(b) = maxval([(norm2(contacts(c)%point - bodies%x(:, members(b))), c=1, m)])
+    end do
     do sweep = 1, max_sweeps
       change = 0.0_dp
+      do b = 1, n_members
+        v_prev(:, b) = bodies%v(:, members(b))
+        w_prev(:, b) = bodies%w(:, members(b))
+      end do
       do c = 1, m
         dl = 0.0_dp
         if (.not. tangential_only) then
@@ -123,7 +148,10 @@ contains
           if (any(dl(2:3) /= 0.0_dp)) call apply(bodies, contacts(c), matmul(basis(:, 2:3, c), dl(2:3)))
           lam(2:3, c) = new_t
         end if
-        change = max(change, abs(dl(1))*k_nn(c), norm2(dl(2:3))*0.5_dp*(k_tt(1, 1, c) + k_tt(2, 2, c)))
+      end do
+      do b = 1, n_members
+        change = max(change, norm2(bodies%v(:, members(b)) - v_prev(:, b)) + &
+                     norm2(bodies%w(:, members(b)) - w_prev(:, b))*reach(b))
       end do
       stats%sweeps = stats%sweeps + 1
       stats%max_sweeps_seen = max(stats%max_sweeps_seen, sweep)
@@ -133,6 +161,17 @@ contains
     do c = 1, m
       impulse(:, c) = matmul(basis(:, :, c), lam(:, c))
     end do
+
+  contains
+
+    subroutine enlist(i)
+      integer, intent(in) :: i
+      if (bodies%fixed(i)) return
+      if (any(members(1:n_members) == i)) return
+      n_members = n_members + 1
+      members(n_members) = i
+    end subroutine enlist
+
   end subroutine solve_contacts_pgs
 
   !> New tangential impulse of one contact: minimises 1/2 x.K x + x.g over |x| <= limit,

@@ -51,6 +51,14 @@ if(RICOCHET_USE_HDF5)
     ricochet_python_case(${case} check_resting.py ${case} $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${case})
   endforeach()
+  foreach(pair stack:stack_10_cubes pyramid:pyramid_15)
+    string(REPLACE ":" ";" pair ${pair})
+    list(GET pair 0 case)
+    list(GET pair 1 deck)
+    ricochet_python_case(${case} check_resting.py ${case} $<TARGET_FILE:ricochet>
+                         ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${case})
+    set_tests_properties(regression.${case} PROPERTIES LABELS "regression;slow")
+  endforeach()
   ricochet_python_case(tori_chain check_collisions.py tori_chain $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/tori_chain.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_tori_chain)
   set_tests_properties(regression.tori_chain PROPERTIES LABELS "regression;slow")
