@@ -75,7 +75,7 @@ module collision_stage
   contains
     procedure :: init => stage_init
     procedure :: contact_pass => stage_contact_pass
-    procedure :: return_unused_gravity => stage_return_unused_gravity
+    procedure :: return_unused_pass => stage_return_unused_pass
     procedure :: limit_step => stage_limit_step
     procedure :: earliest_contact => stage_earliest_contact
     procedure :: resolve => stage_resolve
@@ -501,11 +501,11 @@ contains
   !> combination of the start velocity and the solved one, so a persistent contact that
   !> approached at neither does not approach now. The motion over the step was the one
   !> conservative advancement checked; only the velocities change.
-  subroutine stage_return_unused_gravity(self, bodies, flight, h_taken, gravity)
+  subroutine stage_return_unused_pass(self, bodies, flight, h_taken)
     class(collision_stage_t), intent(in) :: self
     type(bodies_t), intent(inout) :: bodies
     type(free_flight_t), intent(inout) :: flight
-    real(dp), intent(in) :: h_taken, gravity(3)
+    real(dp), intent(in) :: h_taken   !< the step taken [s]
     real(dp) :: unused
     integer :: i
     if (h_taken >= self%pass_step) return
@@ -516,7 +516,7 @@ contains
       bodies%w(:, i) = bodies%w(:, i) - unused*self%resting%dw(:, i)
       call flight%release(i)
     end do
-  end subroutine stage_return_unused_gravity
+  end subroutine stage_return_unused_pass
 
   !> After the bodies moved to the event: contact points of every pair in contact (the
   !> event pairs, and every candidate pair touching them, so a group is solved together),

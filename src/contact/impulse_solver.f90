@@ -25,7 +25,7 @@ module impulse_solver
   use nnls, only: solve_nnls
   implicit none
   private
-  public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity
+  public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, find_root, unite
 
   !> One contact point between bodies a and b (indices into bodies_t, both valid; either
   !> may be fixed).
@@ -97,9 +97,9 @@ contains
     allocate (group_of_contact(size(contacts)), done(size(contacts)))
     do i = 1, size(contacts)
       if (moving(bodies, contacts(i)%a)) then
-        group_of_contact(i) = find(parent, contacts(i)%a)
+        group_of_contact(i) = find_root(parent, contacts(i)%a)
       else
-        group_of_contact(i) = find(parent, contacts(i)%b)
+        group_of_contact(i) = find_root(parent, contacts(i)%b)
       end if
     end do
     done = .false.
@@ -129,23 +129,25 @@ contains
     moving = .not. bodies%fixed(i)
   end function moving
 
-  recursive integer function find(parent, i) result(root)
+  !> Union-find over body indices (contact groups): the root of i's set, with path compression.
+  recursive integer function find_root(parent, i) result(root)
     integer, intent(inout) :: parent(:)
     integer, intent(in) :: i
     if (parent(i) == i) then
       root = i
     else
-      root = find(parent, parent(i))
+      root = find_root(parent, parent(i))
       parent(i) = root
     end if
-  end function find
+  end function find_root
 
+  !> Joins the sets of i and j (the smaller index becomes the root: order-free groups).
   subroutine unite(parent, i, j)
     integer, intent(inout) :: parent(:)
     integer, intent(in) :: i, j
     integer :: ri, rj
-    ri = find(parent, i)
-    rj = find(parent, j)
+    ri = find_root(parent, i)
+    rj = find_root(parent, j)
     if (ri /= rj) parent(max(ri, rj)) = min(ri, rj)
   end subroutine unite
 

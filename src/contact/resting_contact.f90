@@ -28,7 +28,7 @@ module resting_contact
   use error_status, only: error_t
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
-  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity
+  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, find_root, unite
   use contact_solver, only: pgs_stats_t, solve_contacts_pgs
   use sorting, only: sort_index_real, sort_index_keys, find_key
   implicit none
@@ -115,9 +115,9 @@ contains
     end do
     do c = 1, n
       if (involved(contacts(c)%a)) then
-        group_of(c) = find(parent, contacts(c)%a)
+        group_of(c) = find_root(parent, contacts(c)%a)
       else
-        group_of(c) = find(parent, contacts(c)%b)
+        group_of(c) = find_root(parent, contacts(c)%b)
       end if
     end do
     down = 0.0_dp
@@ -296,25 +296,5 @@ contains
       seen(n_seen) = i
     end subroutine note
   end function moving_bodies
-
-  recursive integer function find(parent, i) result(root)
-    integer, intent(inout) :: parent(:)
-    integer, intent(in) :: i
-    if (parent(i) == i) then
-      root = i
-    else
-      root = find(parent, parent(i))
-      parent(i) = root
-    end if
-  end function find
-
-  subroutine unite(parent, i, j)
-    integer, intent(inout) :: parent(:)
-    integer, intent(in) :: i, j
-    integer :: ri, rj
-    ri = find(parent, i)
-    rj = find(parent, j)
-    if (ri /= rj) parent(max(ri, rj)) = min(ri, rj)
-  end subroutine unite
 
 end module resting_contact

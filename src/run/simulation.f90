@@ -286,7 +286,7 @@ contains
       self%step = self%step + 1
       self%last_dt = h
       self%time = time_new
-      call self%collisions%return_unused_gravity(self%bodies, self%propagator, h, self%deck%run%gravity)
+      call self%collisions%return_unused_pass(self%bodies, self%propagator, h)
       call self%collisions%resolve(self%bodies, self%shapes, self%propagator, h, h_planned, err)
       if (err%failed()) return
       hits_output = self%time >= self%next_output
