@@ -61,7 +61,6 @@ if(RICOCHET_USE_HDF5)
   endforeach()
   ricochet_python_case(tori_chain check_collisions.py tori_chain $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/tori_chain.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_tori_chain)
-  set_tests_properties(regression.tori_chain PROPERTIES LABELS "regression;slow")
   ricochet_python_case(bouncing_mesh_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/bouncing_mesh_ball.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_bouncing_mesh_ball
                        ${PROJECT_SOURCE_DIR}/input/meshes/icosphere_face_down.obj)
