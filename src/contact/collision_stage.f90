@@ -28,6 +28,7 @@ module collision_stage
   use contact_material, only: material_table_t
   use pair_geometry, only: pair_gap, gap_lower_bound, pair_contact_points
   use quaternion, only: quat_rotate_inverse
+  use sleeping, only: sleep_t
   implicit none
   private
   public :: collision_stage_t, collision_stats_t
@@ -69,6 +70,9 @@ module collision_stage
     type(pgs_stats_t) :: residual_pgs         !< safety-net solves after unconverged projections
     type(resting_contact_t) :: resting        !< the contact pass of every step
     type(material_table_t) :: materials       !< restitution and friction per &body group
+    type(sleep_t) :: sleep                    !< islands at rest held still until touched
+    integer, allocatable :: band_pairs(:, :)  !< pairs with contact points in the band at the last pass
+    integer :: n_band_pairs = 0
     type(contact_t), allocatable :: contacts(:)
     integer(i8), allocatable :: keys(:, :)
     type(contact_feature_t), allocatable :: features(:)
@@ -79,6 +83,8 @@ module collision_stage
     procedure :: limit_step => stage_limit_step
     procedure :: earliest_contact => stage_earliest_contact
     procedure :: resolve => stage_resolve
+    procedure :: settle => stage_settle
+    procedure :: wake_all => stage_wake_all
   end type collision_stage_t
 
   !> Closest points of one pair at time_now + t, with the poses the propagator will give.
@@ -130,6 +136,12 @@ contains
                             sqrt(2.0_dp*norm2(deck%run%gravity)*self%target))
     end if
     call self%materials%init(deck)
+    ! Sleeping (docs/contact.md): auto speed 1% of the rest speed, so off without gravity.
+    if (deck%contact%sleep_speed >= 0.0_dp) then
+      call self%sleep%init(bodies%n_owned + bodies%n_ghost, deck%contact%sleep_speed, deck%contact%sleep_time)
+    else
+      call self%sleep%init(bodies%n_owned + bodies%n_ghost, 1.0e-2_dp*self%rest_speed, deck%contact%sleep_time)
+    end if
     self%settle_speed = max(self%velocity_tolerance, 1.0e-3_dp*self%rest_speed)
     self%resting%velocity_tolerance = self%velocity_tolerance
     call choose_box_size(extent, 1.0_dp, self%box_size, err)
@@ -413,26 +425,17 @@ contains
     type(free_flight_t), intent(inout) :: flight
     real(dp), intent(in) :: h, gravity(3)
     type(error_t), intent(inout) :: err
-    real(dp), allocatable :: lower(:, :), upper(:, :)
     logical, allocatable :: persistent(:), held(:)
     integer :: n, i, n_contacts, c, kept
-    real(dp) :: r, u, separating_limit
+    real(dp) :: u, separating_limit
     n = bodies%n_owned + bodies%n_ghost
     n_contacts = 0
     self%pass_step = h
+    self%n_band_pairs = 0
     if (n >= 2 .and. h > 0.0_dp) then
-      allocate (lower(3, n), upper(3, n))
-      do i = 1, n
-        r = shapes%shapes(bodies%shape_id(i))%bounding_radius
-        lower(:, i) = bodies%x(:, i) - r
-        upper(:, i) = bodies%x(:, i) + r
-      end do
-      call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)
+      call collect_band_contacts(self, bodies, shapes, flight, n_contacts, err)
       if (err%failed()) return
-      call self%grid%candidate_pairs(1, [self%target + self%tolerance + self%contact_tolerance], self%pairs, &
-                                     self%n_pairs, err, n_owned=bodies%n_owned)
-      if (err%failed()) return
-      call gather_contacts(self, bodies, shapes, n_contacts)
+      call record_band_pairs(self, n_contacts)
     end if
     ! Persistent: not approaching faster than the rest speed (faster ones are impacts, left
     ! to the event with their restitution).
@@ -534,6 +537,7 @@ contains
     type(error_t), intent(inout) :: err
     integer :: i, c, n_contacts
     real(dp), allocatable :: v_old(:, :), w_old(:, :), normal_impulse(:), friction_impulse(:, :)
+    logical :: woke
 
     if (self%n_events == 0) return
     self%stats%events = self%stats%events + 1
@@ -548,6 +552,12 @@ contains
     ! a box on four corners) are solved in one simultaneous group.
     call gather_contacts(self, bodies, shapes, n_contacts)
     if (n_contacts == 0) return
+    ! A body that hits a sleeping island wakes it: the impact is solved with it awake.
+    call self%sleep%wake_touching(bodies, flight, self%contacts(1:n_contacts), woke)
+    if (woke) then
+      call collect_band_contacts(self, bodies, shapes, flight, n_contacts, err)
+      if (err%failed()) return
+    end if
     self%stats%contacts = self%stats%contacts + n_contacts
     do c = 1, n_contacts
       if (normal_velocity(bodies, self%contacts(c)) > -self%rest_speed) self%contacts(c)%restitution = 0.0_dp
@@ -585,6 +595,83 @@ contains
   !> The bound's inputs: velocities and accelerations at the step's start and angular
   !> speed bound times the largest radius (zero for analytic spheres: turning moves none of
   !> their surface).
+  !> Candidate pairs from one ring of a fresh grid and every contact point within the
+  !> contact band, into self%contacts(1:n_contacts). Sleeping islands a moving body touches
+  !> wake, and the contacts are gathered again with them awake (their pairs with each other
+  !> were static-static pairs, never listed, while they slept).
+  subroutine collect_band_contacts(self, bodies, shapes, flight, n_contacts, err)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(out) :: n_contacts
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: lower(:, :), upper(:, :)
+    real(dp) :: r
+    integer :: n, i, round
+    logical :: woke
+    n = bodies%n_owned + bodies%n_ghost
+    n_contacts = 0
+    allocate (lower(3, n), upper(3, n))
+    do i = 1, n
+      r = shapes%shapes(bodies%shape_id(i))%bounding_radius
+      lower(:, i) = bodies%x(:, i) - r
+      upper(:, i) = bodies%x(:, i) + r
+    end do
+    ! Each round wakes at least one island: at most as many rounds as islands asleep.
+    do round = 1, n + 1
+      call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)
+      if (err%failed()) return
+      call self%grid%candidate_pairs(1, [self%target + self%tolerance + self%contact_tolerance], self%pairs, &
+                                     self%n_pairs, err, n_owned=bodies%n_owned)
+      if (err%failed()) return
+      call gather_contacts(self, bodies, shapes, n_contacts)
+      call self%sleep%wake_touching(bodies, flight, self%contacts(1:n_contacts), woke)
+      if (.not. woke) exit
+    end do
+  end subroutine collect_band_contacts
+
+  !> The distinct body pairs of self%contacts(1:n_contacts): the islands sleeping looks at.
+  subroutine record_band_pairs(self, n_contacts)
+    type(collision_stage_t), intent(inout) :: self
+    integer, intent(in) :: n_contacts
+    integer :: c
+    if (.not. allocated(self%band_pairs)) allocate (self%band_pairs(2, max(n_contacts, 16)))
+    if (size(self%band_pairs, 2) < n_contacts) then
+      deallocate (self%band_pairs)
+      allocate (self%band_pairs(2, 2*n_contacts))
+    end if
+    self%n_band_pairs = 0
+    do c = 1, n_contacts
+      ! contact points of one pair are consecutive: keep the first of each run
+      if (self%n_band_pairs > 0) then
+        if (self%band_pairs(1, self%n_band_pairs) == self%contacts(c)%a .and. &
+            self%band_pairs(2, self%n_band_pairs) == self%contacts(c)%b) cycle
+      end if
+      self%n_band_pairs = self%n_band_pairs + 1
+      self%band_pairs(:, self%n_band_pairs) = [self%contacts(c)%a, self%contacts(c)%b]
+    end do
+  end subroutine record_band_pairs
+
+  !> After a step of h [s]: islands quiet for long enough fall asleep (sleeping).
+  subroutine stage_settle(self, bodies, shapes, flight, h)
+    class(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    real(dp), intent(in) :: h
+    if (.not. allocated(self%band_pairs)) allocate (self%band_pairs(2, 16))
+    call self%sleep%update(bodies, shapes, flight, h, self%band_pairs, self%n_band_pairs)
+  end subroutine stage_settle
+
+  !> Every sleeping body wakes (checkpoints: a restart continues exactly).
+  subroutine stage_wake_all(self, bodies, flight)
+    class(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(free_flight_t), intent(inout) :: flight
+    call self%sleep%wake_all(bodies, flight)
+  end subroutine stage_wake_all
+
   function pair_motion(shapes, bodies, flight, i, j, gravity) result(motion)
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies

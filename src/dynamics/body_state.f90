@@ -19,6 +19,9 @@ module body_state
     integer, allocatable :: shape_id(:)         !< index into the shape library
     integer, allocatable :: group_id(:)         !< which &body group of the deck made it
     logical, allocatable :: fixed(:)            !< static: infinite mass, never moves
+    !> asleep (contact/sleeping.f90): held still like a static body (fixed set, inverse mass
+    !> and inertia 0) until something touches it; counts as a moving body in the totals
+    logical, allocatable :: asleep(:)
     real(dp), allocatable :: mass(:)            !< [kg] (huge for fixed bodies; use inv_mass)
     real(dp), allocatable :: inv_mass(:)        !< [1/kg], 0 for fixed bodies
     real(dp), allocatable :: inertia(:, :)      !< (3,n) principal moments [kg m^2]
@@ -44,12 +47,13 @@ contains
     class(bodies_t), intent(inout) :: self
     integer, intent(in) :: capacity
     call self%free()
-    allocate (self%gid(capacity), self%shape_id(capacity), self%group_id(capacity), self%fixed(capacity))
+    allocate (self%gid(capacity), self%shape_id(capacity), self%group_id(capacity), self%fixed(capacity), &
+              self%asleep(capacity))
     allocate (self%mass(capacity), self%inv_mass(capacity))
     allocate (self%inertia(3, capacity), self%inv_inertia(3, capacity))
     allocate (self%x(3, capacity), self%q(4, capacity), self%v(3, capacity), self%w(3, capacity))
     allocate (self%a(3, capacity), self%alpha(3, capacity))
-    self%gid = 0; self%shape_id = 0; self%group_id = 0; self%fixed = .false.
+    self%gid = 0; self%shape_id = 0; self%group_id = 0; self%fixed = .false.; self%asleep = .false.
     self%mass = 0; self%inv_mass = 0; self%inertia = 0; self%inv_inertia = 0
     self%x = 0; self%v = 0; self%w = 0; self%a = 0; self%alpha = 0
     self%q = 0; self%q(1, :) = 1
@@ -57,7 +61,7 @@ contains
 
   subroutine bodies_free(self)
     class(bodies_t), intent(inout) :: self
-    if (allocated(self%gid)) deallocate (self%gid, self%shape_id, self%group_id, self%fixed, self%mass, &
+    if (allocated(self%gid)) deallocate (self%gid, self%shape_id, self%group_id, self%fixed, self%asleep, self%mass, &
                                          self%inv_mass, self%inertia, self%inv_inertia, self%x, self%q, &
                                          self%v, self%w, self%a, self%alpha)
     self%n_owned = 0

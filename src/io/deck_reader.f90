@@ -60,9 +60,10 @@ module deck_reader
     var_spec_t('newmark_beta', V_REAL, 1, 0), var_spec_t('newmark_gamma', V_REAL, 1, 0), &
     var_spec_t('rotation_tolerance', V_REAL, 1, 0), var_spec_t('rotation_max_iterations', V_INTEGER, 1, 0), &
     var_spec_t('rotation', V_CHARACTER, 1, len(integrator_default%rotation))]
-  type(var_spec_t), parameter :: contact_vars(4) = [ &
+  type(var_spec_t), parameter :: contact_vars(6) = [ &
     var_spec_t('restitution', V_REAL, 1, 0), var_spec_t('friction', V_REAL, 1, 0), &
-    var_spec_t('min_separation', V_REAL, 1, 0), var_spec_t('rest_speed', V_REAL, 1, 0)]
+    var_spec_t('min_separation', V_REAL, 1, 0), var_spec_t('rest_speed', V_REAL, 1, 0), &
+    var_spec_t('sleep_speed', V_REAL, 1, 0), var_spec_t('sleep_time', V_REAL, 1, 0)]
   type(var_spec_t), parameter :: output_vars(7) = [ &
     var_spec_t('dir', V_CHARACTER, 1, len(output_default%dir)), var_spec_t('interval', V_REAL, 1, 0), &
     var_spec_t('checkpoint_interval', V_REAL, 1, 0), var_spec_t('progress_interval', V_REAL, 1, 0), &
@@ -1213,10 +1214,10 @@ contains
     type(contact_config_t), intent(out) :: config
     type(error_t), intent(inout) :: err
     type(group_input_t) :: g
-    real(dp) :: restitution, friction, min_separation, rest_speed
+    real(dp) :: restitution, friction, min_separation, rest_speed, sleep_speed, sleep_time
     integer :: ios
     character(len=512) :: msg
-    namelist /contact/ restitution, friction, min_separation, rest_speed
+    namelist /contact/ restitution, friction, min_separation, rest_speed, sleep_speed, sleep_time
 
     call open_group(src, group, contact_vars, '&contact', g)
     call prepare_group(g, err)
@@ -1225,6 +1226,8 @@ contains
     friction = config%friction
     min_separation = config%min_separation
     rest_speed = config%rest_speed
+    sleep_speed = config%sleep_speed
+    sleep_time = config%sleep_time
     msg = ''
     read (g%text, nml=contact, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -1235,11 +1238,15 @@ contains
     config%friction = friction
     config%min_separation = min_separation
     config%rest_speed = rest_speed
+    config%sleep_speed = sleep_speed
+    config%sleep_time = sleep_time
 
     call require_finite(g, err, 'restitution', [restitution])
     call require_finite(g, err, 'friction', [friction])
     call require_finite(g, err, 'min_separation', [min_separation])
     call require_finite(g, err, 'rest_speed', [rest_speed])
+    call require_finite(g, err, 'sleep_speed', [sleep_speed])
+    call require_finite(g, err, 'sleep_time', [sleep_time])
     if (err%failed()) return
     if (restitution < 0.0_dp .or. restitution > 1.0_dp) then
       call fail(g, err, 'restitution', 'restitution must be in [0, 1], got '//real_text(restitution))
@@ -1251,6 +1258,11 @@ contains
                 real_text(min_separation))
     else if (rest_speed /= DECK_AUTO .and. rest_speed < 0.0_dp) then
       call fail(g, err, 'rest_speed', 'rest_speed must be >= 0 m/s, or -1 for auto, got '//real_text(rest_speed))
+    else if (sleep_speed /= DECK_AUTO .and. sleep_speed < 0.0_dp) then
+      call fail(g, err, 'sleep_speed', 'sleep_speed must be >= 0 m/s (0: never sleep), or -1 for auto, got '// &
+                real_text(sleep_speed))
+    else if (sleep_time <= 0.0_dp) then
+      call fail(g, err, 'sleep_time', 'sleep_time must be > 0 s, got '//real_text(sleep_time))
     end if
   end subroutine read_contact_group
 
@@ -2045,6 +2057,10 @@ contains
     note = '[m/s] below it impacts are inelastic'
     if (deck%contact%rest_speed == DECK_AUTO) note = '[m/s] -1: auto, max(2 |g| dt_max, sqrt(2 |g| min_separation))'
     call put_real(unit, 'rest_speed', [deck%contact%rest_speed], note)
+    note = '[m/s] 0: never sleep'
+    if (deck%contact%sleep_speed == DECK_AUTO) note = '[m/s] -1: auto, rest_speed/100'
+    call put_real(unit, 'sleep_speed', [deck%contact%sleep_speed], note)
+    call put_real(unit, 'sleep_time', [deck%contact%sleep_time], '[s]')
     write (unit, '(a)') '/'
     write (unit, '(a)') '&output'
     call put_text(unit, 'dir', deck%output%dir)

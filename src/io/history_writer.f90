@@ -4,7 +4,8 @@
 !>
 !> Columns (header line "name [unit],..."): time, dt, steps, kinetic_translational,
 !> kinetic_rotational, potential, energy_total, momentum_{x,y,z}, angular_momentum_{x,y,z},
-!> wall_time. Reals are written with 17 significant digits (es24.16e3), which round-trips
+!> wall_time, events, contacts, advancement_iterations, min_separation, asleep. Reals are
+!> written with 17 significant digits (es24.16e3), which round-trips
 !> every double exactly.
 module history_writer
   use kinds, only: dp, i8
@@ -25,10 +26,10 @@ module history_writer
     'time [s],dt [s],steps [1],kinetic_translational [J],kinetic_rotational [J],potential [J],'// &
     'energy_total [J],momentum_x [kg m/s],momentum_y [kg m/s],momentum_z [kg m/s],'// &
     'angular_momentum_x [kg m^2/s],angular_momentum_y [kg m^2/s],angular_momentum_z [kg m^2/s],'// &
-    'wall_time [s],events [1],contacts [1],advancement_iterations [1],min_separation [m]'
+    'wall_time [s],events [1],contacts [1],advancement_iterations [1],min_separation [m],asleep [1]'
   integer, parameter :: line_length = 16384
   character(len=*), parameter :: row_format = &
-    '(2(es24.16e3,","),i0,",",11(es24.16e3,","),3(i0,","),es24.16e3)'
+    '(2(es24.16e3,","),i0,",",11(es24.16e3,","),3(i0,","),es24.16e3,",",i0)'
 
   !> One row: global values (already reduced over ranks).
   type :: history_record_t
@@ -45,6 +46,7 @@ module history_writer
     integer(i8) :: contacts = 0                  !< contact points handed to the impulse solver, so far
     integer(i8) :: advancement_iterations = 0    !< closest-point queries in time of contact, so far
     real(dp) :: min_separation = huge(1.0_dp)    !< smallest gap between bodies seen so far [m]
+    integer :: asleep = 0                        !< bodies asleep at this time
   end type history_record_t
 
   type :: history_writer_t
@@ -154,7 +156,7 @@ contains
           rec%kinetic_rotational, rec%potential, &
           rec%kinetic_translational + rec%kinetic_rotational + rec%potential, &
           rec%momentum, rec%angular_momentum, rec%wall_time, rec%events, rec%contacts, &
-          rec%advancement_iterations, rec%min_separation
+          rec%advancement_iterations, rec%min_separation, rec%asleep
         if (status == 0) flush (self%unit, iostat=status)
         if (status /= 0) call err%set(ERR_IO, "cannot write to history file '"//self%path//"'")
       end if

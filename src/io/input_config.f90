@@ -36,6 +36,10 @@ module input_config
     !> [m/s] impacts approaching slower than this are inelastic (resting contact, no Zeno
     !> sequence of ever smaller bounces); auto (-1): max(2 |g| dt_max, sqrt(2 |g| min_separation))
     real(dp) :: rest_speed = -1.0_dp
+    !> [m/s] islands whose points all move slower than this for sleep_time fall asleep;
+    !> 0: never; auto (-1): rest_speed/100 (so no sleeping without gravity)
+    real(dp) :: sleep_speed = -1.0_dp
+    real(dp) :: sleep_time = 0.5_dp          !< [s] quiet time before an island sleeps
   end type contact_config_t
 
   type :: output_config_t

@@ -47,7 +47,7 @@ contains
     ! reported as "conservation error".)
     buffer = 0.0_dp
     do i = 1, bodies%n_owned
-      if (bodies%fixed(i)) cycle
+      if (bodies%fixed(i) .and. .not. bodies%asleep(i)) cycle   ! asleep bodies still count
       call bodies%kinetic_energy(i, et, er)
       buffer(1) = buffer(1) + et
       buffer(2) = buffer(2) + er
@@ -68,7 +68,7 @@ contains
     if (totals%mass > 0.0_dp) totals%centre_of_mass = buffer(8:10)/totals%mass
     spin = 0.0_dp
     do i = 1, bodies%n_owned
-      if (bodies%fixed(i)) cycle
+      if (bodies%fixed(i) .and. .not. bodies%asleep(i)) cycle   ! asleep bodies still count
       x_rel = bodies%x(:, i) - totals%centre_of_mass
       v_rel = bodies%v(:, i) - totals%momentum/max(totals%mass, tiny(1.0_dp))
       spin = spin + bodies%mass(i)*cross(x_rel, v_rel) + bodies%angular_momentum(i)

@@ -33,18 +33,20 @@ contains
     real(dp) :: box_size, r
     integer :: n, i, k, n_pairs
     logical :: any_dynamic
+    logical, allocatable :: static(:)
 
     n = bodies%n_owned
     if (n < 2) return
+    static = bodies%fixed(1:n) .and. .not. bodies%asleep(1:n)   ! asleep bodies are checked too
     allocate (lower(3, n), upper(3, n))
     do i = 1, n
       r = shapes%shapes(bodies%shape_id(i))%bounding_radius
       lower(:, i) = bodies%x(:, i) - r
       upper(:, i) = bodies%x(:, i) + r
     end do
-    any_dynamic = .not. all(bodies%fixed(1:n))
+    any_dynamic = .not. all(static)
     if (any_dynamic) then
-      extent = pack(upper(1, :) - lower(1, :), .not. bodies%fixed(1:n))
+      extent = pack(upper(1, :) - lower(1, :), .not. static)
     else
       extent = upper(1, :) - lower(1, :)
     end if
@@ -57,7 +59,7 @@ contains
     call grid%candidate_pairs(1, [0.0_dp], pairs, n_pairs, err)
     if (err%failed()) return
     do k = 1, n_pairs
-      if (bodies%fixed(pairs(1, k)) .and. bodies%fixed(pairs(2, k))) cycle   ! static scenery may touch
+      if (static(pairs(1, k)) .and. static(pairs(2, k))) cycle   ! static scenery may touch
       if (pair_overlaps(shapes, bodies, pairs(1, k), pairs(2, k))) then
         if (present(time)) then
           call err%set(ERR_INTERNAL, deck%path//': bodies '//describe(deck, bodies, pairs(1, k))//' and '// &

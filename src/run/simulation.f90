@@ -230,6 +230,7 @@ contains
     to%shape_id(j) = from%shape_id(i)
     to%group_id(j) = from%group_id(i)
     to%fixed(j) = from%fixed(i)
+    to%asleep(j) = from%asleep(i)
     to%mass(j) = from%mass(i)
     to%inv_mass(j) = from%inv_mass(i)
     to%inertia(:, j) = from%inertia(:, i)
@@ -289,6 +290,7 @@ contains
       call self%collisions%return_unused_pass(self%bodies, self%propagator, h)
       call self%collisions%resolve(self%bodies, self%shapes, self%propagator, h, h_planned, err)
       if (err%failed()) return
+      call self%collisions%settle(self%bodies, self%shapes, self%propagator, h)
       hits_output = self%time >= self%next_output
       hits_checkpoint = self%time >= self%next_checkpoint
       if (hits_output .or. self%time >= t_end .or. self%time >= self%next_history) then
@@ -337,6 +339,7 @@ contains
     rec%contacts = self%collisions%stats%contacts
     rec%advancement_iterations = self%collisions%stats%advancement_iterations
     rec%min_separation = self%collisions%stats%min_separation
+    rec%asleep = self%collisions%sleep%n_asleep
     call self%history%write(par, rec, err)
     ! Conservation errors relative to the initial kinetic plus |potential| energy scale, and
     ! to the momentum scale: meaningful whatever the origin of the potential.
@@ -384,6 +387,8 @@ contains
       self%next_checkpoint = (anint(self%time/self%deck%output%checkpoint_interval) + 1.0_dp)* &
                              self%deck%output%checkpoint_interval
     end if
+    ! Sleeping islands wake, as a run restarted from here starts with every body awake.
+    call self%collisions%wake_all(self%bodies, self%propagator)
     call self%fill_meta(par, meta)
     call write_checkpoint(par, join_path(self%output_dir, name//'.h5'), meta, self%bodies, err)
     ! Exact flight re-anchors at the checkpoint's state, as a run restarted from it will.
@@ -474,6 +479,10 @@ contains
           rest%pgs%sweeps, ' sweeps (max ', rest%pgs%max_sweeps_seen, ', capped ', rest%pgs%cap_hits, &
           '), '//str(rest%exact%groups)//' exact groups'
       end if
+    end associate
+    associate (sleep => self%collisions%sleep)
+      if (sleep%enabled()) write (*, '(a,i0,a,i0,a,i0,a)') '  sleeping             ', sleep%sleeps, &
+        ' bodies put to sleep, ', sleep%wakes, ' woken, ', sleep%n_asleep_at_wake_all, ' asleep at the end'
     end associate
     if (self%collisions%stats%min_separation < huge(1.0_dp)) then
       write (*, '(a,es10.3,a,es10.3,a)') '  smallest separation  ', self%collisions%stats%min_separation, &

@@ -13,6 +13,10 @@
                   factor 1.25 of 1/dt_max (whole steps), no drift
   stack           10 cubes stacked (stack_10_cubes.nml), 10 s: top cube drifts < 1e-3 m
   pyramid         15-box pyramid (pyramid_15.nml), 10 s: no box drifts more than 1e-3 m
+                  (both fall asleep, whole, once settled: every body asleep at the end)
+  sleep_wake      a cube asleep on a floor is hit by a sliding cube: it wakes at the impact,
+                  slides off, and both sleep again; final positions equal those of the same
+                  deck without sleeping (sleep_speed = 0) to 1e-5 m
 
 Why the tolerances hold with margin: a body under resting contact moves with the constant
 acceleration the contact solve gives it over each step, which is exact for the constant
@@ -106,6 +110,36 @@ elif case in ("stack", "pyramid"):
           f"{int(h['steps'][-1])} steps")
     c.check(float(drift.max()) < 1e-3, f"everything stands: largest drift {drift.max():.3e} m < 1e-3 m")
     c.check(float(np.max(np.linalg.norm(vel[-1, 1:], axis=1))) < 1e-3, "at rest at the end")
+    asleep = int(h["asleep"][-1])
+    c.check(asleep == pos.shape[1] - 1, f"the settled {case} sleeps: {asleep} of {pos.shape[1] - 1} bodies asleep")
+elif case == "sleep_wake":
+    # The same deck without sleeping, in a second output folder.
+    with open(deck) as f:
+        text = f.read()
+    plain = text.replace("min_separation = 1.0e-5 /", "min_separation = 1.0e-5, sleep_speed = 0.0 /")
+    assert plain != text, "sleep_wake deck: &contact line not found"
+    plain_deck = os.path.join(work, "sleep_wake_without_sleeping.nml")
+    with open(plain_deck, "w") as f:
+        f.write(plain)
+    plain_out = os.path.join(work, "out_without_sleeping")
+    run(exe, plain_deck, plain_out)
+    plain_pos = np.array([b["position"].reshape(-1, 3) for _, b in frames(plain_out)])
+    plain_h = history(plain_out)
+    c.check(int(np.max(plain_h["asleep"])) == 0, "sleep_speed = 0: nothing sleeps")
+    t_hit = 1.2
+    before = (h["time"] > 0.6) & (h["time"] < t_hit - 0.05)
+    c.check(bool(np.all(h["asleep"][before] == 1)), "the resting cube sleeps before the impact")
+    after = (h["time"] > t_hit + 0.02) & (h["time"] < t_hit + 0.3)
+    c.check(bool(np.all(h["asleep"][after] == 0)), "the impact wakes it")
+    c.check(int(h["asleep"][-1]) == 2, f"both asleep at the end: {int(h['asleep'][-1])}")
+    slide = float(pos[-1, 1, 0] - pos[0, 1, 0])
+    c.check(slide > 0.1, f"the woken cube slides off: {slide:.4f} m")
+    # Sleeping freezes a body only after sleep_time below sleep_speed s (auto: rest_speed/100
+    # = 2e-3 m/s here); sliding friction would stop it within s^2/(2 mu g) = 7e-7 m anyway,
+    # so the runs differ by that at most, plus the round-off of different contact solves.
+    diff = float(np.max(np.abs(pos[-1] - plain_pos[-1])))
+    print(f"sleep_wake: slide {slide:.6f} m; final positions differ from the run without sleeping by {diff:.2e} m")
+    c.check(diff < 1e-5, f"final positions as without sleeping: {diff:.2e} m < 1e-5 m")
 else:
     sys.exit(f"unknown case {case}")
 c.finish()
