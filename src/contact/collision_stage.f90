@@ -27,6 +27,7 @@ module collision_stage
   use resting_contact, only: resting_contact_t
   use contact_material, only: material_table_t
   use pair_geometry, only: pair_gap, gap_lower_bound, pair_contact_points
+  use plane_bound, only: plane_safe_time
   use quaternion, only: quat_rotate_inverse
   use sleeping, only: sleep_t
   implicit none
@@ -40,6 +41,7 @@ module collision_stage
     integer(i8) :: contacts = 0                !< contact points handed to the impulse solver
     integer(i8) :: capped = 0                  !< pairs stopped by the iteration cap (safe, short)
     integer(i8) :: corrections = 0             !< distance corrections (pairs pushed apart)
+    integer(i8) :: plane_skips = 0             !< pairs advanced from a second-order safe time (plane_bound)
     real(dp) :: min_separation = huge(1.0_dp)  !< smallest gap ever computed [m]
   end type collision_stats_t
 
@@ -183,7 +185,7 @@ contains
     type(pair_oracle_t) :: oracle
     type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
-    real(dp) :: r, gap0, normal0(3)
+    real(dp) :: r, gap0, normal0(3), safe
     real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
     logical, allocatable :: receding(:), far(:), moved(:)
     integer :: n, i, j, k
@@ -274,8 +276,19 @@ contains
       oracle%i = i
       oracle%j = j
       oracle%min_gap = huge(1.0_dp)
+      ! Turning bodies: the second-order bound (plane_bound) skips the part of the step in
+      ! which the pair provably stays above the band (or, settling in it, above the floor).
+      safe = 0.0_dp
+      if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
+        if (gap0 > self%target + self%tolerance) then
+          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, self%target + self%tolerance, h_event)
+        else if (receding(k) .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
+          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, h_event)
+        end if
+        if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
+      end if
       call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, 0.5_dp*self%target, &
-                        self%velocity_tolerance, self%max_iterations, res, receding=receding(k))
+                        self%velocity_tolerance, self%max_iterations, res, receding=receding(k), safe_time=safe)
       self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
       self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
       if (res%capped) self%stats%capped = self%stats%capped + 1
@@ -337,11 +350,13 @@ contains
   end function approaching
 
   !> Distance correction (a receding pair that has settled to the floor, where the bound
-  !> would allow no further step): moves the pair apart along its normal until its gap is two
-  !> minimum separations, split by inverse mass (a fixed body does not move), positions
-  !> only (velocities stay: no energy is injected). Refused when either moving body has
-  !> another neighbour closer than the push plus the settling floor: a correction never
-  !> pushes a third body into contact.
+  !> would allow no further step): moves the pair apart along its normal towards a gap of
+  !> two minimum separations, split by inverse mass (a fixed body does not move), positions
+  !> only (velocities stay: no energy is injected). A moving body is pushed no further than
+  !> its other neighbours allow: each of their gaps must stay above the settling floor plus
+  !> the tolerance (a correction never pushes a third body into contact, nor to the floor).
+  !> In a dense pile the push is then partial; it is refused when it would not open the
+  !> pair by at least a quarter of the minimum separation.
   logical function separate_pair(self, bodies, shapes, flight, k, gaps) result(done)
     type(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
@@ -349,7 +364,7 @@ contains
     type(free_flight_t), intent(inout) :: flight
     integer, intent(in) :: k
     real(dp), intent(inout) :: gaps(:)
-    real(dp) :: gap, normal(3), push, share_i, share_j, w_i, w_j
+    real(dp) :: gap, normal(3), push, share_i, share_j, w_i, w_j, room_i, room_j, floor, scale
     integer :: i, j, l
     i = self%pairs(1, k)
     j = self%pairs(2, k)
@@ -362,15 +377,22 @@ contains
     if (w_i + w_j <= 0.0_dp) return
     share_i = push*w_i/(w_i + w_j)
     share_j = push*w_j/(w_i + w_j)
+    ! Room: how far each body may move before a gap to another neighbour reaches the floor
+    ! plus the tolerance (a translation by s changes any of its gaps by at most s).
+    floor = 0.5_dp*self%target + self%tolerance
+    room_i = huge(1.0_dp)
+    room_j = huge(1.0_dp)
     do l = 1, self%n_pairs
       if (l == k) cycle
-      if (any(self%pairs(:, l) == i) .and. share_i > 0.0_dp) then
-        if (gaps(l) < share_i + self%target) return
-      end if
-      if (any(self%pairs(:, l) == j) .and. share_j > 0.0_dp) then
-        if (gaps(l) < share_j + self%target) return
-      end if
+      if (any(self%pairs(:, l) == i)) room_i = min(room_i, gaps(l) - floor)
+      if (any(self%pairs(:, l) == j)) room_j = min(room_j, gaps(l) - floor)
     end do
+    scale = 1.0_dp
+    if (share_i > 0.0_dp) scale = min(scale, max(room_i, 0.0_dp)/share_i)
+    if (share_j > 0.0_dp) scale = min(scale, max(room_j, 0.0_dp)/share_j)
+    if (scale*push < 0.25_dp*self%target) return
+    share_i = scale*share_i
+    share_j = scale*share_j
     bodies%x(:, i) = bodies%x(:, i) - share_i*normal
     bodies%x(:, j) = bodies%x(:, j) + share_j*normal
     call flight%release(i)
@@ -381,7 +403,10 @@ contains
       if (any(self%pairs(:, l) == i)) gaps(l) = gaps(l) - share_i
       if (any(self%pairs(:, l) == j)) gaps(l) = gaps(l) - share_j
     end do
-    gaps(k) = 2.0_dp*self%target
+    ! (convex pairs open by exactly the push; others by at least zero)
+    gaps(k) = gap
+    if (shapes%shapes(bodies%shape_id(i))%convex .and. shapes%shapes(bodies%shape_id(j))%convex) &
+      gaps(k) = gap + share_i + share_j
     self%stats%corrections = self%stats%corrections + 1
     done = .true.
   end function separate_pair

@@ -62,7 +62,7 @@ contains
   !>    settle by at most the distance to `floor` (< target), so round-off in the relative
   !>    velocity never stalls the run, and no gap ever falls below the floor.
   subroutine advance_pair(oracle, motion, gap0, normal0, step, target, tolerance, floor, velocity_tolerance, &
-                          max_iterations, result, receding)
+                          max_iterations, result, receding, safe_time)
     class(distance_oracle_t), intent(inout) :: oracle
     type(pair_motion_t), intent(in) :: motion
     real(dp), intent(in) :: gap0, normal0(3), step, target, tolerance
@@ -73,9 +73,13 @@ contains
     !> The caller measured that no contact point of the pair approaches at t = 0 (only the
     !> bound's turning term says it may): in the band it then settles instead of stopping.
     logical, intent(in), optional :: receding
+    !> A time [s] before which the caller has shown (plane_bound) that the gap stays above
+    !> the floor (in the band) or the band (outside it): every advance then reaches at least
+    !> there, whichever of the two bounds allows more.
+    real(dp), intent(in), optional :: safe_time
     type(closing_bound_t) :: bound
     logical :: measured_receding
-    real(dp) :: t, gap, normal(3), dt, aim
+    real(dp) :: t, gap, normal(3), dt, aim, safe
     ! Aim half a tolerance above the target: an exact bound then lands inside
     ! [target, target + tolerance] with round-off to spare, never just below the target.
     aim = target + 0.5_dp*tolerance
@@ -84,6 +88,14 @@ contains
     t = 0.0_dp
     gap = gap0
     normal = normal0
+    safe = 0.0_dp
+    if (present(safe_time)) safe = safe_time
+    if (safe >= step) then
+      result%time = step
+      result%gap = gap
+      result%normal = normal
+      return
+    end if
     do
       if (result%iterations >= max_iterations) then
         result%capped = .true.
@@ -104,6 +116,8 @@ contains
         t = step
         exit
       end if
+      ! Up to `safe` the caller's second-order bound holds: the later of the two is safe.
+      if (t + dt < safe) dt = safe - t
       if (dt <= 0.0_dp) then
         result%contact = .true.
         exit

@@ -469,7 +469,8 @@ contains
       self%collisions%stats%contacts, ' contact points, ', self%collisions%impulses%groups, ' impulse groups, ', &
       self%collisions%stats%corrections, ' distance corrections)'
     write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', self%collisions%stats%pair_tests, ' pair queries, ', &
-      self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, ' capped)'
+      self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, &
+      ' capped, '//str(self%collisions%stats%plane_skips)//' started from a second-order safe time)'
     associate (rest => self%collisions%resting)
       if (rest%stats%passes > 0) then
         write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  resting contact      ', rest%stats%passes, ' steps, ', &
