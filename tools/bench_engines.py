@@ -221,11 +221,14 @@ class Bullet:
         nsteps = int(round(t_end / dt))
         every = 1 if n <= 1000 else 10
         tstep, dmin, k = 0.0, math.inf, 0
+        half, t_half = nsteps // 2, 0.0
         while k < nsteps:
             t0 = time.perf_counter()
             step()
             tstep += time.perf_counter() - t0
             k += 1
+            if k == half:
+                t_half = tstep
             if k % every == 0:
                 dmin = min(dmin, self.min_dist())
             if k == 20 and tstep / 20 * nsteps > budget:
@@ -235,7 +238,8 @@ class Bullet:
         # in the contact springs and is missing from the kinetic energy e1.
         ncon = self.ncontacts()
         return dict(dt=dt, steps=nsteps, t_sim=nsteps * dt, wall_step=tstep,
-                    wall_per_sim_s=tstep / (nsteps * dt), max_pen=max(0.0, -dmin),
+                    wall_per_sim_s=tstep / (nsteps * dt),
+                    wall_per_sim_s_late=(tstep - t_half) / ((nsteps - half) * dt), max_pen=max(0.0, -dmin),
                     pen_every=every, e_drift=(e1 - e0) / e0,
                     p_drift=float(np.linalg.norm(p1 - p0) / (n * s['mass'] * 1.0)),
                     L=s['L'], contacts_end=ncon)
@@ -400,7 +404,7 @@ class Ricochet:
         L = s['L']
         lines = ["&run title='gas %s %d', t_end=%r, dt_max=1e-2 /" % (shape, n, t_end),
                  "&contact restitution=1.0 /",
-                 "&output write_frames=.false., history_interval=%r /" % t_end]
+                 "&output write_frames=.false., history_interval=%r /" % (t_end / 10)]
         for axis in range(3):
             for side in (-1, 1):
                 size = [L + 2 * WALL_T] * 3
@@ -447,7 +451,15 @@ class Ricochet:
         p0 = np.array([col['momentum_%s' % c][0] for c in 'xyz'])
         p1 = np.array([col['momentum_%s' % c][-1] for c in 'xyz'])
         steps = int(col['steps'][-1])
+        # Second half of the run: the gas starts with every gap >= GAP (5 mm between bounding
+        # spheres, more between cube faces), so the first milliseconds have fewer events.
+        h = int(np.argmax(col['time'] >= 0.5 * t_end - 1e-12))
+        late_t = float(col['time'][-1] - col['time'][h])
+        late_wall = float(col['wall_time'][-1] - col['wall_time'][h])
+        late_events = int(col['events'][-1] - col['events'][h])
         return dict(dt=float('nan'), steps=steps, t_sim=t_end, wall_step=wall, wall_per_sim_s=wall / t_end,
+                    wall_per_sim_s_late=late_wall / late_t, events_late=late_events, t_late=late_t,
+                    wall_per_event_late=late_wall / max(late_events, 1),
                     run_wall=run_wall, process_wall=process_wall, setup_wall=float(col['wall_time'][0]),
                     events=events, contact_points=points, impulse_groups=groups, pair_queries=queries,
                     groups_per_event=groups / max(events, 1), wall_per_event=wall / max(events, 1),
@@ -491,8 +503,8 @@ def growth_exponents(runs, key='wall_per_sim_s'):
 
 def write_gas_md(a, results, rows, sfx):
     runs = results['runs'].get('gas', [])
-    hdr = ('| scene | engine | N | simulated [s] | time per simulated second [s] | largest penetration [m] '
-           '| energy / momentum drift |\n|---|---|---|---|---|---|---|\n')
+    hdr = ('| scene | engine | N | simulated [s] | time per simulated second [s], whole run | same, second half '
+           '| largest penetration [m] | energy / momentum drift |\n|---|---|---|---|---|---|---|---|\n')
     md = ('Dilute gas, engine default time step, simulated time per run as listed. Timing: '
           'stepping only (ricochet: history wall clock from t = 0 to t_end, after the set-up). '
           'Drift: relative kinetic energy change (E1-E0)/E0; momentum |P1-P0| / (N m * 1 m/s).\n\n'
@@ -504,24 +516,24 @@ def write_gas_md(a, results, rows, sfx):
     if ric:
         md += ('\nricochet in detail (stepping = history wall clock t = 0 .. t_end; set-up = '
                'history wall clock at t = 0; process = whole program, deck reading included):\n\n'
-               '| shape | N | simulated [s] | steps | events | impulse groups | groups per event '
-               '| pair queries per step | stepping [s] | per event [s] | set-up [s] | process [s] |\n'
-               '|---|---|---|---|---|---|---|---|---|---|---|---|\n')
+               '| shape | N | simulated [s] | steps | events | events per N per simulated s, second half '
+               '| impulse groups | groups per event | pair queries per step | stepping [s] | per event [s] '
+               '| per event, second half [s] | set-up [s] | process [s] |\n'
+               '|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n')
         for r in ric:
-            md += '| %s | %d | %g | %d | %d | %d | %.2f | %.1f | %.3g | %.3g | %.3g | %.3g |\n' % (
-                r['shape'], r['n'], r['t_sim'], r['steps'], r['events'], r['impulse_groups'],
-                r['groups_per_event'], r['pair_queries'] / max(r['steps'], 1), r['wall_step'],
-                r['wall_per_event'], r['setup_wall'], r['process_wall'])
-    ex = growth_exponents(runs)
-    ex_ev = growth_exponents([r for r in runs if r['engine'] == 'ricochet'], 'wall_per_event')
-    if ex or ex_ev:
+            md += '| %s | %d | %g | %d | %d | %.2f | %d | %.2f | %.1f | %.3g | %.3g | %.3g | %.3g | %.3g |\n' % (
+                r['shape'], r['n'], r['t_sim'], r['steps'], r['events'], r['events_late'] / r['n'] / r['t_late'],
+                r['impulse_groups'], r['groups_per_event'], r['pair_queries'] / max(r['steps'], 1),
+                r['wall_step'], r['wall_per_event'], r['wall_per_event_late'], r['setup_wall'], r['process_wall'])
+    ric_runs = [r for r in runs if r['engine'] == 'ricochet']
+    ex = [('time per simulated second, whole run',) + x for x in growth_exponents(runs)]
+    ex += [('time per simulated second, second half',) + x for x in growth_exponents(runs, 'wall_per_sim_s_late')]
+    ex += [('time per event, whole run',) + x for x in growth_exponents(ric_runs, 'wall_per_event')]
+    ex += [('time per event, second half',) + x for x in growth_exponents(ric_runs, 'wall_per_event_late')]
+    if ex:
         md += '\nGrowth exponents (least squares over the N that ran; successive pairs in brackets):\n\n'
-        for shape, eng, lo, hi, slope, pairs in ex:
-            md += '- %s, %s, time per simulated second: n^%.2f (N %d..%d) [%s]\n' % (
-                shape, eng, slope, lo, hi, ', '.join(pairs))
-        for shape, eng, lo, hi, slope, pairs in ex_ev:
-            md += '- %s, %s, time per event: n^%.2f (N %d..%d) [%s]\n' % (
-                shape, eng, slope, lo, hi, ', '.join(pairs))
+        for what, shape, eng, lo, hi, slope, pairs in ex:
+            md += '- %s, %s, %s: n^%.2f (N %d..%d) [%s]\n' % (shape, eng, what, slope, lo, hi, ', '.join(pairs))
     write_md(os.path.join(a.out, 'engines_gas%s.md' % sfx), md)
 
 
@@ -536,7 +548,8 @@ def main():
     ap.add_argument('--gas-shapes', nargs='+', default=['sphere', 'cube'])
     ap.add_argument('--gas-t', type=float, help='simulated gas time [s]')
     ap.add_argument('--gas-t-for', nargs='+', default=[], metavar='N=T',
-                    help='simulated gas time T [s] for body count N (shorter runs for large N)')
+                    help='simulated gas time T [s] for body count N (shorter runs for large N); '
+                    'SHAPE:N=T for one shape only')
     ap.add_argument('--tag', default='', help='suffix of the output files: engines_gas_TAG.{md,json}')
     ap.add_argument('--mj-max-arena-mb', type=int, default=MJ_MAX_ARENA_MB,
                     help='largest MuJoCo arena to ask for [MB]; larger gases are reported as not run')
@@ -550,7 +563,9 @@ def main():
     MJ_MAX_ARENA_MB = a.mj_max_arena_mb
     gas_n = a.gas_n or ([100, 1000, 3000] if a.quick else [100, 1000, 3000, 10000, 30000, 100000])
     gas_t = a.gas_t or 1.0
-    gas_t_for = {int(k): float(v) for k, v in (x.split('=') for x in a.gas_t_for)}
+    # N=T for both shapes, or SHAPE:N=T for one (cube:100000=0.01)
+    gas_t_for = {(k.split(':')[0] if ':' in k else None, int(k.split(':')[-1])): float(v)
+                 for k, v in (x.split('=') for x in a.gas_t_for)}
     dts = a.dts or ([1e-2, 1e-3, 1e-4] if a.quick else [1e-2, 3e-3, 1e-3, 3e-4, 1e-4])
 
     if a.dump_initial:
@@ -587,7 +602,7 @@ def main():
             for n in gas_n:
                 for e in engines:
                     stopped = stopped_by[e.name]
-                    t_sim = gas_t_for.get(n, gas_t)
+                    t_sim = gas_t_for.get((shape, n), gas_t_for.get((None, n), gas_t))
                     if stopped:
                         r = dict(skipped=True, reason='a smaller N was already skipped')
                     else:
@@ -602,16 +617,17 @@ def main():
                     results['runs'].setdefault('gas', []).append(dict(engine=e.name, shape=shape, n=n,
                                                                       t_sim_asked=t_sim, **r))
                     if r.get('skipped'):
-                        line = '| gas %s | %s | %d | %g | skipped: %s | - | - |' % (
-                            shape, e.name, n, t_sim, r.get('reason') or 'predicted %.0f s of stepping > %g s budget'
-                            % (r['predicted_s'], a.budget))
+                        why = r.get('reason') or ('skipped: predicted %.0f s of stepping > %g s budget'
+                                                   % (r['predicted_s'], a.budget))
+                        line = '| gas %s | %s | %d | %g | %s | - | - | - |' % (
+                            shape, e.name, n, t_sim, why if why.startswith('not run') else 'skipped: ' + why)
                     else:
                         pen = fmt(r['max_pen'])
                         if 'smallest_separation' in r:
                             pen += ' (smallest gap %.2e)' % r['smallest_separation']
-                        line = '| gas %s | %s | %d | %g | %s | %s | energy %+.2e, momentum %.2e |' % (
-                            shape, e.name, n, t_sim, fmt(r['wall_per_sim_s']), pen,
-                            r['e_drift'], r['p_drift'])
+                        line = '| gas %s | %s | %d | %g | %s | %s | %s | energy %+.2e, momentum %.2e |' % (
+                            shape, e.name, n, t_sim, fmt(r['wall_per_sim_s']), fmt(r['wall_per_sim_s_late']),
+                            pen, r['e_drift'], r['p_drift'])
                     print(line, flush=True)
                     rows.append(line)
                     write_gas_md(a, results, rows, sfx)
