@@ -229,7 +229,7 @@ class Bullet:
             k += 1
             if k == half:
                 t_half = tstep
-            if k % every == 0:
+            if k % every == 0 or k == nsteps:   # and after the last step: short runs of large N
                 dmin = min(dmin, self.min_dist())
             if k == 20 and tstep / 20 * nsteps > budget:
                 return dict(skipped=True, predicted_s=tstep / 20 * nsteps, dt=dt)
