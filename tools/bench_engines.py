@@ -393,6 +393,7 @@ class Ricochet:
         if not os.path.exists(self.exe):
             raise ImportError('no ricochet program at %s (build it first)' % self.exe)
         self.version = 'ricochet (this repository)'
+        self.keep_history = None   # folder to copy each run's history.csv into, or None
 
     def settings(self):
         return dict(restitution=1.0, min_separation='auto (1e-4 of the smallest body)', rotation='exact')
@@ -431,6 +432,11 @@ class Ricochet:
             process_wall = time.perf_counter() - t0
             if proc.returncode != 0:
                 raise RuntimeError(proc.stderr)
+            if self.keep_history:
+                import shutil
+                os.makedirs(self.keep_history, exist_ok=True)
+                shutil.copy(os.path.join(work, 'out', 'history.csv'),
+                            os.path.join(self.keep_history, 'history_%s_%d.csv' % (shape, n)))
             with open(os.path.join(work, 'out', 'history.csv')) as f:
                 names = [c.strip().split(' [')[0] for c in f.readline().split(',')]
             hist = np.loadtxt(os.path.join(work, 'out', 'history.csv'), delimiter=',', skiprows=1, ndmin=2)
@@ -550,6 +556,8 @@ def main():
     ap.add_argument('--gas-t-for', nargs='+', default=[], metavar='N=T',
                     help='simulated gas time T [s] for body count N (shorter runs for large N); '
                     'SHAPE:N=T for one shape only')
+    ap.add_argument('--keep-history', metavar='DIR',
+                    help="copy each ricochet gas run's history.csv (rows every t/10) into DIR")
     ap.add_argument('--tag', default='', help='suffix of the output files: engines_gas_TAG.{md,json}')
     ap.add_argument('--mj-max-arena-mb', type=int, default=MJ_MAX_ARENA_MB,
                     help='largest MuJoCo arena to ask for [MB]; larger gases are reported as not run')
@@ -587,6 +595,9 @@ def main():
             engines.append({'pybullet': Bullet, 'mujoco': Mujoco, 'ricochet': Ricochet}[e]())
         except ImportError as err:
             print('skipping %s: %s (pip install %s)' % (e, err, e), file=sys.stderr)
+    for e in engines:
+        if e.name == 'ricochet':
+            e.keep_history = a.keep_history
     results = dict(machine=platform.platform(), python=platform.python_version(),
                    engines={e.name: e.version for e in engines}, quick=a.quick, runs={})
     sfx = ('_quick' if a.quick else '') + ('_' + a.tag if a.tag else '')
