@@ -15,7 +15,10 @@ The resting-contact scenes (the stack of 10 cubes, the pyramid, the piles) are i
 tools/bench_resting.py, which extends the engine classes below.
 
 Timing: time.perf_counter around the engine's step call only (set-up, contact queries and
-energy bookkeeping are outside); reported per simulated second. Penetration: the most
+energy bookkeeping are outside); reported per simulated second, over the whole run and over
+its second half (the gas starts with no gap under 5 mm). ricochet (--engines ricochet) runs
+as a program on a deck of the same bodies and is timed by its history's wall clock from
+t = 0 (after set-up) to t_end. Penetration: the most
 negative contact distance seen after any step (PyBullet getContactPoints contactDistance,
 MuJoCo data.contact.dist).
 
