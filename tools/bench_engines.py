@@ -15,7 +15,10 @@ The resting-contact scenes (the stack of 10 cubes, the pyramid, the piles) are i
 tools/bench_resting.py, which extends the engine classes below.
 
 Timing: time.perf_counter around the engine's step call only (set-up, contact queries and
-energy bookkeeping are outside); reported per simulated second. Penetration: the most
+energy bookkeeping are outside); reported per simulated second, over the whole run and over
+its second half (the gas starts with no gap under 5 mm). ricochet (--engines ricochet) runs
+as a program on a deck of the same bodies and is timed by its history's wall clock from
+t = 0 (after set-up) to t_end. Penetration: the most
 negative contact distance seen after any step (PyBullet getContactPoints contactDistance,
 MuJoCo data.contact.dist).
 
@@ -23,6 +26,10 @@ MuJoCo data.contact.dist).
     .venv/bin/python tools/bench_engines.py --quick         # under a minute, N <= 3000
     .venv/bin/python tools/bench_engines.py --scenes gas --gas-n 100 1000 --engines mujoco
     .venv/bin/python tools/bench_engines.py --dump-initial /tmp/gas   # initial states as CSV
+    # large gases: shorter simulated times for large N, own output files
+    .venv/bin/python tools/bench_engines.py --scenes gas --engines ricochet pybullet mujoco \
+        --gas-n 100 1000 10000 100000 --gas-t 0.5 --gas-t-for 10000=0.05 100000=0.02 \
+        --budget 3600 --tag large      # -> docs/bench/engines_gas_large.{md,json}
 
 Install the engines with `.venv/bin/pip install pybullet mujoco`; a missing engine is
 skipped with a message. Writes docs/bench/engines_<scene>.md and docs/bench/engines.json.
@@ -217,12 +224,15 @@ class Bullet:
         nsteps = int(round(t_end / dt))
         every = 1 if n <= 1000 else 10
         tstep, dmin, k = 0.0, math.inf, 0
+        half, t_half = nsteps // 2, 0.0
         while k < nsteps:
             t0 = time.perf_counter()
             step()
             tstep += time.perf_counter() - t0
             k += 1
-            if k % every == 0:
+            if k == half:
+                t_half = tstep
+            if k % every == 0 or k == nsteps:   # and after the last step: short runs of large N
                 dmin = min(dmin, self.min_dist())
             if k == 20 and tstep / 20 * nsteps > budget:
                 return dict(skipped=True, predicted_s=tstep / 20 * nsteps, dt=dt)
@@ -231,7 +241,8 @@ class Bullet:
         # in the contact springs and is missing from the kinetic energy e1.
         ncon = self.ncontacts()
         return dict(dt=dt, steps=nsteps, t_sim=nsteps * dt, wall_step=tstep,
-                    wall_per_sim_s=tstep / (nsteps * dt), max_pen=max(0.0, -dmin),
+                    wall_per_sim_s=tstep / (nsteps * dt),
+                    wall_per_sim_s_late=(tstep - t_half) / ((nsteps - half) * dt), max_pen=max(0.0, -dmin),
                     pen_every=every, e_drift=(e1 - e0) / e0,
                     p_drift=float(np.linalg.norm(p1 - p0) / (n * s['mass'] * 1.0)),
                     L=s['L'], contacts_end=ncon)
@@ -322,8 +333,9 @@ class Mujoco(Bullet):
         # blocks at 10^4 bodies), so the arena grows like n^2 (6 bytes per pair asked for).
         mem_mb = 64 + int(6.0 * (n + 6) ** 2 / 2 ** 20)
         if mem_mb > MJ_MAX_ARENA_MB:
-            return dict(skipped=True, reason='MuJoCo arena would need %.0f GB (~4 bytes per '
-                        'geom pair in the broad phase)' % (mem_mb / 1024))
+            return dict(skipped=True, cheap_skip=True,
+                        reason='not run: needs %.0f GB of arena (~4 bytes per geom pair in the '
+                        'broad phase; --mj-max-arena-mb %d)' % (mem_mb / 1024, MJ_MAX_ARENA_MB))
         s = gas_setup(n, shape)
         L = s['L']
         walls = []
@@ -371,8 +383,11 @@ class Mujoco(Bullet):
 
 class Ricochet:
     """ricochet itself, run as a program on a deck that holds exactly the same bodies (one
-    &body per body: position, orientation, velocity) and walls. Timing: the run's own wall
-    time (set-up included, small), per simulated second. Penetration: ricochet never allows
+    &body per body: position, orientation, velocity) and walls. Timing: the stepping time,
+    from the history's wall clock between its rows at t = 0 (after the set-up) and t_end,
+    per simulated second (set-up, the final checkpoint and reading the deck are outside, as
+    they are for the other engines); the whole process and the run's own wall time are
+    kept beside it. Penetration: ricochet never allows
     any; its smallest separation is reported instead (negative would be a penetration)."""
     name = 'ricochet'
 
@@ -381,6 +396,7 @@ class Ricochet:
         if not os.path.exists(self.exe):
             raise ImportError('no ricochet program at %s (build it first)' % self.exe)
         self.version = 'ricochet (this repository)'
+        self.keep_history = None   # folder to copy each run's history.csv into, or None
 
     def settings(self):
         return dict(restitution=1.0, min_separation='auto (1e-4 of the smallest body)', rotation='exact')
@@ -392,7 +408,7 @@ class Ricochet:
         L = s['L']
         lines = ["&run title='gas %s %d', t_end=%r, dt_max=1e-2 /" % (shape, n, t_end),
                  "&contact restitution=1.0 /",
-                 "&output write_frames=.false., history_interval=%r /" % t_end]
+                 "&output write_frames=.false., history_interval=%r /" % (t_end / 10)]
         for axis in range(3):
             for side in (-1, 1):
                 size = [L + 2 * WALL_T] * 3
@@ -410,19 +426,52 @@ class Ricochet:
             deck = os.path.join(work, 'gas.nml')
             with open(deck, 'w') as f:
                 f.write('\n'.join(lines) + '\n')
+            t0 = time.perf_counter()
             try:
                 proc = subprocess.run([self.exe, deck, '--output-dir', os.path.join(work, 'out')],
                                       capture_output=True, text=True, timeout=budget)
             except subprocess.TimeoutExpired:
-                return dict(skipped=True, predicted_s=budget * 2, dt=float('nan'))
+                return dict(skipped=True, reason='stopped after the %g s budget' % budget)
+            process_wall = time.perf_counter() - t0
             if proc.returncode != 0:
                 raise RuntimeError(proc.stderr)
+            if self.keep_history:
+                import shutil
+                os.makedirs(self.keep_history, exist_ok=True)
+                shutil.copy(os.path.join(work, 'out', 'history.csv'),
+                            os.path.join(self.keep_history, 'history_%s_%d.csv' % (shape, n)))
+            with open(os.path.join(work, 'out', 'history.csv')) as f:
+                names = [c.strip().split(' [')[0] for c in f.readline().split(',')]
             hist = np.loadtxt(os.path.join(work, 'out', 'history.csv'), delimiter=',', skiprows=1, ndmin=2)
-        wall = float(proc.stdout.split('wall time')[1].split()[0])
-        sep = float(proc.stdout.split('smallest separation')[1].split()[0])
-        e0, e1 = hist[0, 3] + hist[0, 4], hist[-1, 3] + hist[-1, 4]
-        p0, p1 = hist[0, 7:10], hist[-1, 7:10]
-        return dict(dt=float('nan'), steps=int(hist[-1, 2]), t_sim=t_end, wall_step=wall, wall_per_sim_s=wall / t_end,
+        col = {k: hist[:, names.index(k)] for k in names}
+        # Stepping time: the history's wall clock from the row written at t = 0 (end of the
+        # set-up: shapes, bodies, overlap check, grid) to the row at t_end, so that large N
+        # compares with the other engines' step-only timing. The run's own 'wall time' also
+        # holds the set-up and the final checkpoint; reading the deck is outside both.
+        wall = float(col['wall_time'][-1] - col['wall_time'][0])
+        out = proc.stdout
+        run_wall = float(out.split('wall time')[1].split()[0])
+        sep = float(out.split('smallest separation')[1].split()[0])
+        ev = out.split('contact events')[1].split()
+        events, points, groups = int(ev[0]), int(ev[1].lstrip('(')), int(ev[4])
+        queries = int(out.split('time of contact')[1].split()[0])
+        e0 = col['kinetic_translational'][0] + col['kinetic_rotational'][0]
+        e1 = col['kinetic_translational'][-1] + col['kinetic_rotational'][-1]
+        p0 = np.array([col['momentum_%s' % c][0] for c in 'xyz'])
+        p1 = np.array([col['momentum_%s' % c][-1] for c in 'xyz'])
+        steps = int(col['steps'][-1])
+        # Second half of the run: the gas starts with every gap >= GAP (5 mm between bounding
+        # spheres, more between cube faces), so the first milliseconds have fewer events.
+        h = int(np.argmax(col['time'] >= 0.5 * t_end - 1e-12))
+        late_t = float(col['time'][-1] - col['time'][h])
+        late_wall = float(col['wall_time'][-1] - col['wall_time'][h])
+        late_events = int(col['events'][-1] - col['events'][h])
+        return dict(dt=float('nan'), steps=steps, t_sim=t_end, wall_step=wall, wall_per_sim_s=wall / t_end,
+                    wall_per_sim_s_late=late_wall / late_t, events_late=late_events, t_late=late_t,
+                    wall_per_event_late=late_wall / max(late_events, 1),
+                    run_wall=run_wall, process_wall=process_wall, setup_wall=float(col['wall_time'][0]),
+                    events=events, contact_points=points, impulse_groups=groups, pair_queries=queries,
+                    groups_per_event=groups / max(events, 1), wall_per_event=wall / max(events, 1),
                     max_pen=max(0.0, -sep), smallest_separation=sep, e_drift=(e1 - e0) / e0,
                     p_drift=float(np.linalg.norm(p1 - p0) / (n * s['mass'] * 1.0)), L=L, contacts_end=0)
 
@@ -443,7 +492,62 @@ def write_md(path, text):
     os.replace(tmp, path)
 
 
+def growth_exponents(runs, key='wall_per_sim_s'):
+    """Least-squares slope of log(key) against log(N) per (shape, engine), over the runs
+    that ran; with the N range it covers."""
+    out = []
+    for shape in sorted(set(r['shape'] for r in runs)):
+        for eng in sorted(set(r['engine'] for r in runs)):
+            rs = [r for r in runs if r['shape'] == shape and r['engine'] == eng
+                  and not r.get('skipped') and r.get(key, 0) > 0]
+            if len(rs) >= 2:
+                x = np.log([r['n'] for r in rs])
+                y = np.log([r[key] for r in rs])
+                slope = float(np.polyfit(x, y, 1)[0])
+                pairs = ['%.2f' % (math.log(b[key] / a_[key]) / math.log(b['n'] / a_['n']))
+                         for a_, b in zip(rs, rs[1:])]
+                out.append((shape, eng, min(r['n'] for r in rs), max(r['n'] for r in rs), slope, pairs))
+    return out
+
+
+def write_gas_md(a, results, rows, sfx):
+    runs = results['runs'].get('gas', [])
+    hdr = ('| scene | engine | N | simulated [s] | time per simulated second [s], whole run | same, second half '
+           '| largest penetration [m] | energy / momentum drift |\n|---|---|---|---|---|---|---|---|\n')
+    md = ('Dilute gas, engine default time step, simulated time per run as listed. Timing: '
+          'stepping only (ricochet: history wall clock from t = 0 to t_end, after the set-up). '
+          'Drift: relative kinetic energy change (E1-E0)/E0; momentum |P1-P0| / (N m * 1 m/s).\n\n'
+          'Machine: %s, %d cores, Python %s; %s.\n\n' % (
+              platform.platform(), os.cpu_count(), platform.python_version(),
+              ', '.join(results['engines'].values()))
+          + hdr + '\n'.join(rows) + '\n')
+    ric = [r for r in runs if r['engine'] == 'ricochet' and not r.get('skipped')]
+    if ric:
+        md += ('\nricochet in detail (stepping = history wall clock t = 0 .. t_end; set-up = '
+               'history wall clock at t = 0; process = whole program, deck reading included):\n\n'
+               '| shape | N | simulated [s] | steps | events | events per N per simulated s, second half '
+               '| impulse groups | groups per event | pair queries per step | stepping [s] | per event [s] '
+               '| per event, second half [s] | set-up [s] | process [s] |\n'
+               '|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n')
+        for r in ric:
+            md += '| %s | %d | %g | %d | %d | %.2f | %d | %.2f | %.1f | %.3g | %.3g | %.3g | %.3g | %.3g |\n' % (
+                r['shape'], r['n'], r['t_sim'], r['steps'], r['events'], r['events_late'] / r['n'] / r['t_late'],
+                r['impulse_groups'], r['groups_per_event'], r['pair_queries'] / max(r['steps'], 1),
+                r['wall_step'], r['wall_per_event'], r['wall_per_event_late'], r['setup_wall'], r['process_wall'])
+    ric_runs = [r for r in runs if r['engine'] == 'ricochet']
+    ex = [('time per simulated second, whole run',) + x for x in growth_exponents(runs)]
+    ex += [('time per simulated second, second half',) + x for x in growth_exponents(runs, 'wall_per_sim_s_late')]
+    ex += [('time per event, whole run',) + x for x in growth_exponents(ric_runs, 'wall_per_event')]
+    ex += [('time per event, second half',) + x for x in growth_exponents(ric_runs, 'wall_per_event_late')]
+    if ex:
+        md += '\nGrowth exponents (least squares over the N that ran; successive pairs in brackets):\n\n'
+        for what, shape, eng, lo, hi, slope, pairs in ex:
+            md += '- %s, %s, %s: n^%.2f (N %d..%d) [%s]\n' % (shape, eng, what, slope, lo, hi, ', '.join(pairs))
+    write_md(os.path.join(a.out, 'engines_gas%s.md' % sfx), md)
+
+
 def main():
+    global MJ_MAX_ARENA_MB
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--quick', action='store_true', help='gas up to N = 3000, three time steps (under a minute)')
     ap.add_argument('--scenes', nargs='+', default=['gas', 'ball'], help='gas, ball (the stack is in bench_resting.py)')
@@ -452,6 +556,14 @@ def main():
     ap.add_argument('--gas-n', type=int, nargs='+', help='gas body counts')
     ap.add_argument('--gas-shapes', nargs='+', default=['sphere', 'cube'])
     ap.add_argument('--gas-t', type=float, help='simulated gas time [s]')
+    ap.add_argument('--gas-t-for', nargs='+', default=[], metavar='N=T',
+                    help='simulated gas time T [s] for body count N (shorter runs for large N); '
+                    'SHAPE:N=T for one shape only')
+    ap.add_argument('--keep-history', metavar='DIR',
+                    help="copy each ricochet gas run's history.csv (rows every t/10) into DIR")
+    ap.add_argument('--tag', default='', help='suffix of the output files: engines_gas_TAG.{md,json}')
+    ap.add_argument('--mj-max-arena-mb', type=int, default=MJ_MAX_ARENA_MB,
+                    help='largest MuJoCo arena to ask for [MB]; larger gases are reported as not run')
     ap.add_argument('--budget', type=float, default=60.0,
                     help='skip a gas run (and larger N) predicted to step longer [s]')
     ap.add_argument('--dts', type=float, nargs='+', help='ball time steps [s]')
@@ -459,8 +571,12 @@ def main():
     ap.add_argument('--dump-initial', metavar='DIR',
                     help='write the gas initial states (CSV) for the sizes and exit')
     a = ap.parse_args()
+    MJ_MAX_ARENA_MB = a.mj_max_arena_mb
     gas_n = a.gas_n or ([100, 1000, 3000] if a.quick else [100, 1000, 3000, 10000, 30000, 100000])
     gas_t = a.gas_t or 1.0
+    # N=T for both shapes, or SHAPE:N=T for one (cube:100000=0.01)
+    gas_t_for = {(k.split(':')[0] if ':' in k else None, int(k.split(':')[-1])): float(v)
+                 for k, v in (x.split('=') for x in a.gas_t_for)}
     dts = a.dts or ([1e-2, 1e-3, 1e-4] if a.quick else [1e-2, 3e-3, 1e-3, 3e-4, 1e-4])
 
     if a.dump_initial:
@@ -482,45 +598,54 @@ def main():
             engines.append({'pybullet': Bullet, 'mujoco': Mujoco, 'ricochet': Ricochet}[e]())
         except ImportError as err:
             print('skipping %s: %s (pip install %s)' % (e, err, e), file=sys.stderr)
+    for e in engines:
+        if e.name == 'ricochet':
+            e.keep_history = a.keep_history
     results = dict(machine=platform.platform(), python=platform.python_version(),
                    engines={e.name: e.version for e in engines}, quick=a.quick, runs={})
-    jpath = os.path.join(a.out, 'engines%s.json' % ('_quick' if a.quick else ''))
-    sfx = '_quick' if a.quick else ''
+    sfx = ('_quick' if a.quick else '') + ('_' + a.tag if a.tag else '')
+    jpath = os.path.join(a.out, ('engines_gas_%s.json' % a.tag) if a.tag else 'engines%s.json' % sfx)
     hdr = '| scene | engine | %s | time per simulated second [s] | largest penetration [m] | %s |\n|---|---|---|---|---|---|\n'
 
     if 'gas' in a.scenes:
         rows = []
         for shape in a.gas_shapes:
-            for e in engines:
-                stopped = False
-                for n in gas_n:
+            stopped_by = {e.name: False for e in engines}
+            # N outside, engines inside: the runs of one scene follow each other (and share
+            # the cached initial state).
+            for n in gas_n:
+                for e in engines:
+                    stopped = stopped_by[e.name]
+                    t_sim = gas_t_for.get((shape, n), gas_t_for.get((None, n), gas_t))
                     if stopped:
                         r = dict(skipped=True, reason='a smaller N was already skipped')
                     else:
                         t0 = time.perf_counter()
-                        r = e.gas(n, shape, gas_t, a.budget)
+                        r = e.gas(n, shape, t_sim, a.budget)
                         r['wall_total'] = time.perf_counter() - t0
-                        stopped = r.get('skipped', False)
+                        # A run skipped for its predicted cost stops the larger ones; one
+                        # skipped for memory (found before any work) does not.
+                        stopped_by[e.name] = r.get('skipped', False) and not r.get('cheap_skip', False)
                     if not r.get('skipped'):
                         r['settings'] = e.settings()
-                    results['runs'].setdefault('gas', []).append(dict(engine=e.name, shape=shape, n=n, **r))
-                    if r.get('skipped') and 'reason' in r:
-                        stopped = True
+                    results['runs'].setdefault('gas', []).append(dict(engine=e.name, shape=shape, n=n,
+                                                                      t_sim_asked=t_sim, **r))
                     if r.get('skipped'):
-                        line = '| gas %s | %s | %d | skipped: %s | - | - |' % (
-                            shape, e.name, n, r.get('reason') or 'predicted %.0f s of stepping > %g s budget'
-                            % (r['predicted_s'], a.budget))
+                        why = r.get('reason') or ('skipped: predicted %.0f s of stepping > %g s budget'
+                                                   % (r['predicted_s'], a.budget))
+                        line = '| gas %s | %s | %d | %g | %s | - | - | - |' % (
+                            shape, e.name, n, t_sim, why if why.startswith('not run') else 'skipped: ' + why)
                     else:
-                        line = '| gas %s | %s | %d | %s | %s | energy %+.2e, momentum %.2e |' % (
-                            shape, e.name, n, fmt(r['wall_per_sim_s']), fmt(r['max_pen']),
-                            r['e_drift'], r['p_drift'])
+                        pen = fmt(r['max_pen'])
+                        if 'smallest_separation' in r:
+                            pen += ' (smallest gap %.2e)' % r['smallest_separation']
+                        line = '| gas %s | %s | %d | %g | %s | %s | %s | energy %+.2e, momentum %.2e |' % (
+                            shape, e.name, n, t_sim, fmt(r['wall_per_sim_s']), fmt(r['wall_per_sim_s_late']),
+                            pen, r['e_drift'], r['p_drift'])
                     print(line, flush=True)
                     rows.append(line)
-        md = ('Dilute gas, %g s simulated per run, engine default time step. Drift: relative '
-              'kinetic energy change (E1-E0)/E0; momentum |P1-P0| / (N m * 1 m/s).\n\n'
-              % gas_t + hdr % ('N', 'energy / momentum drift') + '\n'.join(rows) + '\n')
-        write_md(os.path.join(a.out, 'engines_gas%s.md' % sfx), md)
-        write_md(jpath, json.dumps(results, indent=1))
+                    write_gas_md(a, results, rows, sfx)
+                    write_md(jpath, json.dumps(results, indent=1))
 
     if 'ball' in a.scenes:
         rows = []

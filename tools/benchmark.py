@@ -7,6 +7,9 @@ against a reference, and writes a Markdown table and a PNG plot into docs/ (or -
 
   .venv/bin/python tools/benchmark.py free-rotation   # error at T=20 s vs cost, per method and dt
   .venv/bin/python tools/benchmark.py throughput      # free-flight body updates per second, 1e3..1e6 bodies
+  .venv/bin/python tools/benchmark.py bouncing-ball   # 10th apex error vs min_separation
+  .venv/bin/python tools/benchmark.py cradle          # Newton's cradle velocity error vs min_separation
+  .venv/bin/python tools/benchmark.py gas             # gas of spheres / cubes, cost vs number of bodies
 
 The free-rotation case is the torque-free body with principal moments (1, 2, 3) kg m^2 and
 w0 = (0.01, 5, 0.01) rad/s of tests/data/free_rotation_I123.csv (a thin plate with its
@@ -215,6 +218,44 @@ def bouncing_ball(args):
     print(table)
 
 
+def cradle(args):
+    """Newton's cradle (input/validation/newtons_cradle.nml with every gap set to the
+    minimum separation): error of the final velocities against the ideal (0, 0, 0, 0, 1) m/s
+    as min_separation varies, and what the run costs."""
+    r, v0 = 0.1, 1.0
+    ideal = np.zeros((5, 3))
+    ideal[4, 0] = v0
+    results = []
+    for delta in [float(x) for x in args.separations.split(",")]:
+        # Same layout as the validation deck: every ball delta from the next (inside the
+        # contact band), the striker at 1 m/s; only the last ball moves afterwards.
+        deck = f"""&run title="Newton's cradle", t_end=1.0, dt_max=1.0e-2 /
+&contact restitution=1.0, min_separation={delta!r} /
+&output interval=1.0, checkpoint_interval=0 /
+&body name='striker', shape='sphere', radius={r!r}, density=1000.0, position={-3 * r!r},0,0, velocity={v0!r},0,0 /
+&body name='row', shape='sphere', radius={r!r}, density=1000.0, position={-r + delta!r},0,0,
+      copies=4,1,1, spacing={2 * r + delta!r},0,0 /
+"""
+        with tempfile.TemporaryDirectory() as work:
+            cpu, wall, out, stdout = run_deck(args.exe, deck, work, args.repeat)
+            b = final_frame(out)
+        v = b["velocity"].reshape(-1, 3)
+        err = float(np.max(np.abs(v - ideal)))
+        m = re.search(r"contact events\s+(\d+) \((\d+) contact points, (\d+) impulse groups", stdout)
+        events, points, groups = (int(m.group(k)) for k in (1, 2, 3))
+        results.append((delta, cpu, wall, events, groups, err))
+        print(f"min_separation={delta:8.1e} cpu={cpu:6.3f}s wall={wall:6.3f}s events={events} groups={groups} "
+              f"max |v - (0,0,0,0,1)|={err:9.2e}", flush=True)
+    lines = ["| min_separation [m] | whole process CPU [s] | events | impulse groups | largest error of the final velocities vs (0,0,0,0,1) [m/s] |",
+             "|---|---|---|---|---|"]
+    for delta, cpu, wall, events, groups, err in results:
+        lines.append(f"| {delta:.0e} | {cpu:.3f} | {events} | {groups} | {err:.1e} |")
+    table = "\n".join(lines)
+    with open(os.path.join(args.out_dir, "bench_cradle.md"), "w") as f:
+        f.write(f"Machine: {machine_line()}. Release build, best of {args.repeat} runs.\n\n{table}\n")
+    print(table)
+
+
 def gas(args):
     """Dilute gas of spheres or cubes in a closed static box, e = 1, no gravity: cost per
     simulated second against the number of bodies, and the growth exponent."""
@@ -270,7 +311,7 @@ def gas(args):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("case", choices=["free-rotation", "throughput", "bouncing-ball", "gas"])
+    p.add_argument("case", choices=["free-rotation", "throughput", "bouncing-ball", "cradle", "gas"])
     p.add_argument("--separations", default="1e-3,1e-4,1e-5,1e-6,1e-7,1e-8")
     p.add_argument("--gas-sizes", default="125,1000,8000")
     p.add_argument("--gas-time", type=float, default=0.5)
@@ -285,7 +326,7 @@ def main():
     args = p.parse_args()
     os.makedirs(args.out_dir, exist_ok=True)
     {"free-rotation": free_rotation, "throughput": throughput, "bouncing-ball": bouncing_ball,
-     "gas": gas}[args.case](args)
+     "cradle": cradle, "gas": gas}[args.case](args)
 
 
 if __name__ == "__main__":
