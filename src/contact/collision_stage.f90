@@ -185,7 +185,7 @@ contains
     type(pair_oracle_t) :: oracle
     type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
-    real(dp) :: r, gap0, normal0(3), safe
+    real(dp) :: r, gap0, normal0(3), safe, floor
     real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
     logical, allocatable :: receding(:), far(:), moved(:)
     integer :: n, i, j, k
@@ -277,11 +277,18 @@ contains
       oracle%j = j
       oracle%min_gap = huge(1.0_dp)
       ! Turning bodies: the second-order bound (plane_bound) skips the part of the step in
-      ! which the pair provably stays above the band (or, settling in it, above the floor).
+      ! which the pair provably stays above the band (or, settling in the band, above the
+      ! floor). A pair hovering just above the band (within one target, its centres closing
+      ! slower than the rest speed: a tumbling body about to rest) may come down to 3/4 of
+      ! the target instead, or the first-order bound would crawl towards the band in tiny
+      ! steps; such a contact is a resting one, not an impact whose timing matters.
       safe = 0.0_dp
       if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
         if (gap0 > self%target + self%tolerance) then
-          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, self%target + self%tolerance, h_event)
+          floor = self%target + self%tolerance
+          if (gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed) &
+            floor = 0.75_dp*self%target
+          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, floor, h_event)
         else if (receding(k) .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
           safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, h_event)
         end if

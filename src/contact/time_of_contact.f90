@@ -80,6 +80,12 @@ contains
     type(closing_bound_t) :: bound
     logical :: measured_receding
     real(dp) :: t, gap, normal(3), dt, aim, safe
+    integer :: beyond_safe
+    !> With a second-order safe time, a pair hovering just above the band would make the
+    !> first-order bound crawl (each query moves the gap little while the turning term says
+    !> it may close fast): after this many queries the step ends there (capped, safe) and
+    !> the next step starts from a fresh second-order bound.
+    integer, parameter :: max_beyond_safe = 4
     ! Aim half a tolerance above the target: an exact bound then lands inside
     ! [target, target + tolerance] with round-off to spare, never just below the target.
     aim = target + 0.5_dp*tolerance
@@ -96,8 +102,9 @@ contains
       result%normal = normal
       return
     end if
+    beyond_safe = 0
     do
-      if (result%iterations >= max_iterations) then
+      if (result%iterations >= max_iterations .or. beyond_safe > max_beyond_safe) then
         result%capped = .true.
         exit
       end if
@@ -123,6 +130,7 @@ contains
         exit
       end if
       t = t + dt
+      if (safe > 0.0_dp) beyond_safe = beyond_safe + 1
       call oracle%gap_at(t, gap, normal)
       result%iterations = result%iterations + 1
       if (gap <= target + tolerance) then
