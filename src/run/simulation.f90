@@ -479,6 +479,9 @@ contains
         write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  contact solver       ', rest%pgs%solves, ' PGS solves, ', &
           rest%pgs%sweeps, ' sweeps (max ', rest%pgs%max_sweeps_seen, ', capped ', rest%pgs%cap_hits, &
           '), '//str(rest%exact%groups)//' exact groups'
+        if (rest%stats%staggered_solves > 0) write (*, '(a)') '  friction groups      '// &
+          str(rest%stats%staggered_solves)//' staggered solves, '//str(rest%stats%staggered_rounds)//' rounds ('// &
+          str(rest%stats%staggered_capped)//' capped), '//str(rest%stats%projections)//' finished by the projection'
       end if
     end associate
     associate (sleep => self%collisions%sleep)
