@@ -300,13 +300,14 @@ class Scene:
         self.pos, self.quat = np.vstack(pos), np.vstack(quat)
         self.n = len(self.pos)
 
-    def deck(self, t_end=None, interval=None):
+    def deck(self, t_end=None, interval=None, check_overlaps=False, extra_comments=()):
         t_end = t_end or self.t_end
-        lines = ['! %s' % c for c in self.comments]
+        lines = ['! %s' % c for c in list(self.comments) + list(extra_comments)]
         lines += ["&run title = '%s', t_end = %r, dt_max = %r, gravity = 0.0, 0.0, %r /" % (
                       self.title, t_end, DECK_DT_MAX, -G),
                   '&contact friction = %r, restitution = 0.0 /' % MU,
-                  "&output dir = '../../output/%s', interval = %r /" % (self.name, interval or t_end / 100)]
+                  "&output dir = '../../output/%s', interval = %r%s /" % (
+                      self.name, interval or t_end / 100, ', check_overlaps = .true.' if check_overlaps else '')]
         if self.plane_floor:
             # The engines' floor is the plane z = 0; a deck takes a fixed box whose top face
             # is that plane, far wider than anything that can reach it.
@@ -433,6 +434,11 @@ def all_decks():
            ('pyramid_15.nml', pyramid_scene().deck(interval=0.1))]
     for kind in PILE_SPECS:
         out.append(('pile_%s.nml' % kind, pile_scene(kind).deck(t_end=DECK_T_PILE, interval=0.05)))
+    # The pile the test suite runs (tests/regression/check_resting.py, case pile_small).
+    out.append(('pile_8_cubes.nml', pile_scene('cubes', n=8).deck(
+        t_end=DECK_T_PILE, interval=0.05, check_overlaps=True, extra_comments=[
+            'check_resting.py pile_small: no overlap at any frame (check_overlaps), no body leaves the',
+            'box, kinetic energy at the end below 1e-6 of the potential energy released.'])))
     return out
 
 

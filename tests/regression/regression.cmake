@@ -51,7 +51,7 @@ if(RICOCHET_USE_HDF5)
     ricochet_python_case(${case} check_resting.py ${case} $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${case})
   endforeach()
-  foreach(pair stack:stack_10_cubes pyramid:pyramid_15)
+  foreach(pair stack:stack_10_cubes pyramid:pyramid_15 pile_small:pile_8_cubes)
     string(REPLACE ":" ";" pair ${pair})
     list(GET pair 0 case)
     list(GET pair 1 deck)
@@ -60,6 +60,8 @@ if(RICOCHET_USE_HDF5)
   endforeach()
   # 23 s: the pyramid's first second (exact normal solves of 15 boxes every step) before it sleeps
   set_tests_properties(regression.pyramid PROPERTIES LABELS "regression;slow")
+  # ~45 s: 8 cubes landing on each other are ~10,000 global events before they rest
+  set_tests_properties(regression.pile_small PROPERTIES LABELS "regression;slow")
   ricochet_python_case(tori_chain check_collisions.py tori_chain $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/tori_chain.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_tori_chain)
   ricochet_python_case(bouncing_mesh_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
