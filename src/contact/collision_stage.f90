@@ -188,6 +188,7 @@ contains
     real(dp) :: r, gap0, normal0(3), safe, floor
     real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
     logical, allocatable :: receding(:), far(:), moved(:)
+    logical :: hovering
     integer :: n, i, j, k
 
     n = bodies%n_owned + bodies%n_ghost
@@ -283,11 +284,12 @@ contains
       ! the target instead, or the first-order bound would crawl towards the band in tiny
       ! steps; such a contact is a resting one, not an impact whose timing matters.
       safe = 0.0_dp
+      hovering = .false.
       if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
         if (gap0 > self%target + self%tolerance) then
           floor = self%target + self%tolerance
-          if (gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed) &
-            floor = 0.75_dp*self%target
+          hovering = gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed
+          if (hovering) floor = 0.75_dp*self%target
           safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, floor, h_event)
         else if (receding(k) .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
           safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, h_event)
@@ -295,7 +297,8 @@ contains
         if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
       end if
       call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, 0.5_dp*self%target, &
-                        self%velocity_tolerance, self%max_iterations, res, receding=receding(k), safe_time=safe)
+                        self%velocity_tolerance, self%max_iterations, res, receding=receding(k), safe_time=safe, &
+                        hovering=hovering)
       self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
       self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
       if (res%capped) self%stats%capped = self%stats%capped + 1

@@ -62,7 +62,7 @@ contains
   !>    settle by at most the distance to `floor` (< target), so round-off in the relative
   !>    velocity never stalls the run, and no gap ever falls below the floor.
   subroutine advance_pair(oracle, motion, gap0, normal0, step, target, tolerance, floor, velocity_tolerance, &
-                          max_iterations, result, receding, safe_time)
+                          max_iterations, result, receding, safe_time, hovering)
     class(distance_oracle_t), intent(inout) :: oracle
     type(pair_motion_t), intent(in) :: motion
     real(dp), intent(in) :: gap0, normal0(3), step, target, tolerance
@@ -77,10 +77,14 @@ contains
     !> the floor (in the band) or the band (outside it): every advance then reaches at least
     !> there, whichever of the two bounds allows more.
     real(dp), intent(in), optional :: safe_time
+    !> The pair hovers just above the band (collision_stage): after a few queries past the
+    !> safe time the step ends there instead of crawling on (see max_beyond_safe).
+    logical, intent(in), optional :: hovering
     type(closing_bound_t) :: bound
     logical :: measured_receding
     real(dp) :: t, gap, normal(3), dt, aim, safe
     integer :: beyond_safe
+    logical :: crawl_limited
     !> With a second-order safe time, a pair hovering just above the band would make the
     !> first-order bound crawl (each query moves the gap little while the turning term says
     !> it may close fast): after this many queries the step ends there (capped, safe) and
@@ -103,6 +107,8 @@ contains
       return
     end if
     beyond_safe = 0
+    crawl_limited = .false.
+    if (present(hovering)) crawl_limited = hovering .and. safe > 0.0_dp
     do
       if (result%iterations >= max_iterations .or. beyond_safe > max_beyond_safe) then
         result%capped = .true.
@@ -130,7 +136,7 @@ contains
         exit
       end if
       t = t + dt
-      if (safe > 0.0_dp) beyond_safe = beyond_safe + 1
+      if (crawl_limited) beyond_safe = beyond_safe + 1
       call oracle%gap_at(t, gap, normal)
       result%iterations = result%iterations + 1
       if (gap <= target + tolerance) then
