@@ -237,10 +237,9 @@ contains
     real(dp), intent(inout) :: impulse(:, :)
     type(error_t), intent(inout) :: err
     integer, parameter :: max_rounds = 20
-    !> PGS sweeps of the friction solve per round. 20 left a pile of 8 cubes leaning on its
-    !> walls creeping at mm/s for ever (75% of the solves hit the round cap and the
-    !> frictionless projection finished them, letting the bodies slip); 60 let it come to
-    !> rest and sleep at 1.8 s, for about 1.5x the cost per step.
+    !> PGS sweeps of the friction solve per round. With 20, a pile of 8 cubes leaning on its
+    !> walls crept at mm/s for good; with 60 it came to rest and slept (1.8 s, and 4.0 s on
+    !> another trajectory), for about 1.5x the cost per step (docs/contact.md, limits).
     integer, parameter :: friction_sweeps = 60
     real(dp), allocatable :: v_star(:, :), w_star(:, :), v_round(:, :), w_round(:, :), lam_n(:), tangential(:, :)
     real(dp) :: change
