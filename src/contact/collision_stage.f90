@@ -26,7 +26,7 @@ module collision_stage
   use contact_solver, only: pgs_stats_t, solve_contacts_pgs
   use resting_contact, only: resting_contact_t
   use contact_material, only: material_table_t
-  use pair_geometry, only: pair_gap, gap_lower_bound, pair_contact_points
+  use pair_geometry, only: pair_gap, gap_lower_bound, pair_contact_points, bounding_sphere_boxes
   use plane_bound, only: plane_safe_time
   use quaternion, only: quat_rotate_inverse
   use sleeping, only: sleep_t
@@ -185,7 +185,7 @@ contains
     type(pair_oracle_t) :: oracle
     type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
-    real(dp) :: r, gap0, normal0(3), safe, floor
+    real(dp) :: gap0, normal0(3), safe, floor
     real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
     logical, allocatable :: receding(:), far(:), moved(:)
     logical :: hovering
@@ -196,10 +196,8 @@ contains
     self%n_events = 0
     if (n < 2) return
     allocate (lower(3, n), upper(3, n), margin(n))
+    call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
     do i = 1, n
-      r = shapes%shapes(bodies%shape_id(i))%bounding_radius
-      lower(:, i) = bodies%x(:, i) - r
-      upper(:, i) = bodies%x(:, i) + r
       ! The bounding sphere does not move when the body turns: only translation grows it.
       margin(i) = 0.0_dp
       if (.not. bodies%fixed(i)) margin(i) = norm2(bodies%v(:, i))*h + 0.5_dp*norm2(flight%acceleration(i, gravity))*h*h
@@ -642,17 +640,12 @@ contains
     integer, intent(out) :: n_contacts
     type(error_t), intent(inout) :: err
     real(dp), allocatable :: lower(:, :), upper(:, :)
-    real(dp) :: r
-    integer :: n, i, round
+    integer :: n, round
     logical :: woke
     n = bodies%n_owned + bodies%n_ghost
     n_contacts = 0
     allocate (lower(3, n), upper(3, n))
-    do i = 1, n
-      r = shapes%shapes(bodies%shape_id(i))%bounding_radius
-      lower(:, i) = bodies%x(:, i) - r
-      upper(:, i) = bodies%x(:, i) + r
-    end do
+    call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
     ! Each round wakes at least one island: at most as many rounds as islands asleep.
     do round = 1, n + 1
       call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)

@@ -12,12 +12,29 @@ module pair_geometry
   use quaternion, only: quat_rotate_inverse
   implicit none
   private
-  public :: pair_gap, gap_lower_bound, point_box_gap, pair_contact_points, KEY_LENGTH
+  public :: pair_gap, gap_lower_bound, point_box_gap, pair_contact_points, bounding_sphere_boxes, KEY_LENGTH
 
   !> A contact's key: global ids of a and b, the feature kind and the two features' ids.
   integer, parameter :: KEY_LENGTH = 7
 
 contains
+
+  !> Axis-aligned boxes [m] of the bounding spheres of bodies 1:n (centre of mass +- the
+  !> shape's bounding radius): they do not change when a body turns, which is what the
+  !> grid passes need.
+  pure subroutine bounding_sphere_boxes(shapes, bodies, n, lower, upper)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: n
+    real(dp), intent(out) :: lower(:, :), upper(:, :)
+    integer :: i
+    real(dp) :: r
+    do i = 1, n
+      r = shapes%shapes(bodies%shape_id(i))%bounding_radius
+      lower(:, i) = bodies%x(:, i) - r
+      upper(:, i) = bodies%x(:, i) + r
+    end do
+  end subroutine bounding_sphere_boxes
 
   !> Gap and unit normal (from i to j) between two posed bodies.
   subroutine pair_gap(shapes, bodies, i, j, xi, qi, xj, qj, gap, normal)

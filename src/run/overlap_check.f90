@@ -12,6 +12,7 @@ module overlap_check
   use mesh_distance, only: distance_result_t, sphere_mesh_distance
   use contact_features, only: bodies_overlap, winding_number
   use quaternion, only: quat_rotate_inverse
+  use pair_geometry, only: bounding_sphere_boxes
   implicit none
   private
   public :: check_initial_overlaps
@@ -30,7 +31,7 @@ contains
     type(bucket_grid_t) :: grid
     real(dp), allocatable :: lower(:, :), upper(:, :), extent(:)
     integer, allocatable :: pairs(:, :)
-    real(dp) :: box_size, r
+    real(dp) :: box_size
     integer :: n, i, k, n_pairs
     logical :: any_dynamic
     logical, allocatable :: static(:)
@@ -39,11 +40,7 @@ contains
     if (n < 2) return
     static = bodies%fixed(1:n) .and. .not. bodies%asleep(1:n)   ! asleep bodies are checked too
     allocate (lower(3, n), upper(3, n))
-    do i = 1, n
-      r = shapes%shapes(bodies%shape_id(i))%bounding_radius
-      lower(:, i) = bodies%x(:, i) - r
-      upper(:, i) = bodies%x(:, i) + r
-    end do
+    call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
     any_dynamic = .not. all(static)
     if (any_dynamic) then
       extent = pack(upper(1, :) - lower(1, :), .not. static)
