@@ -241,6 +241,12 @@ contains
     !> walls crept at mm/s for good; with 60 it came to rest and slept (1.8 s, and 4.0 s on
     !> another trajectory), for about 1.5x the cost per step (docs/contact.md, limits).
     integer, parameter :: friction_sweeps = 60
+    !> Rounds end when no velocity changes by more than this [m/s]. The rounds converge
+    !> linearly (about 0.78 per round in a pile), so 1e-9 (the PGS tolerance) took 20 rounds
+    !> and more; 1e-6 takes about 10, and what it leaves is 3 orders below the sleep speed
+    !> (an approaching residual is finished by the exact projection). The 8-cube pile then
+    !> lands in 5,200 events instead of 9,900 and sleeps at 2.4 s instead of 4.0 s.
+    real(dp), parameter :: round_tolerance = 1.0e-6_dp
     real(dp), allocatable :: v_star(:, :), w_star(:, :), v_round(:, :), w_round(:, :), lam_n(:), tangential(:, :)
     real(dp) :: change
     integer :: m, k, round
@@ -270,7 +276,7 @@ contains
       do k = 1, m
         change = max(change, maxval(abs(bodies%v(:, [contacts(k)%a, contacts(k)%b]) - v_round(:, [contacts(k)%a, contacts(k)%b]))))
       end do
-      if (round > 1 .and. change <= self%tolerance) exit
+      if (round > 1 .and. change <= round_tolerance) exit
     end do
     do k = 1, m
       tangential(:, k) = tangential(:, k) - dot_product(tangential(:, k), contacts(k)%normal)*contacts(k)%normal

@@ -158,11 +158,11 @@ elif case == "pile_small":
     print(f"pile_small: {released:.3f} J released, kinetic {kinetic:.3e} J at {h['time'][-1]:.2f} s, "
           f"{int(h['asleep'][-1])} asleep, {int(h['events'][-1])} events, {int(h['steps'][-1])} steps")
     # The bar of issue 6 (1e-6 of the released energy), and rest: the cubes end as a tower
-    # of 7 with one leaning on a wall, which creeps at mm/s for a while (the friction solve
-    # against the walls, docs/contact.md "Known limits") and sleeps at ~4 s; with 20 PGS
-    # sweeps per friction round it crept for good (1e-7-2e-6 of the energy, never asleep).
-    # How long the creep lasts depends on the trajectory: the first thing to look at if a
-    # change of the contact code makes this case fail.
+    # of 8 and all sleep at 2.4 s. Other trajectories of this pour (earlier versions of the
+    # contact code) ended leaning on a wall and crept at mm/s for seconds, or for good with
+    # 20 PGS sweeps per friction round (docs/contact.md, "Known limits"): how long a pile
+    # creeps depends on the trajectory, the first thing to look at if a change of the
+    # contact code makes this case fail.
     c.check(released > 50.0, f"the cubes fell into the box: {released:.2f} J released")
     c.check(kinetic < 1e-6 * released, f"at rest: kinetic energy {kinetic:.2e} J < 1e-6 of the energy released")
     c.check(int(h["asleep"][-1]) == 8, f"all 8 asleep at the end: {int(h['asleep'][-1])}")

@@ -60,7 +60,7 @@ if(RICOCHET_USE_HDF5)
   endforeach()
   # 23 s: the pyramid's first second (exact normal solves of 15 boxes every step) before it sleeps
   set_tests_properties(regression.pyramid PROPERTIES LABELS "regression;slow")
-  # ~80 s: 8 cubes landing on each other are ~10,000 global events, then creep until ~4 s
+  # ~27 s: 8 cubes landing on each other are ~5,000 global events before they sleep at 2.4 s
   set_tests_properties(regression.pile_small PROPERTIES LABELS "regression;slow")
   ricochet_python_case(tori_chain check_collisions.py tori_chain $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/tori_chain.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_tori_chain)
