@@ -459,8 +459,10 @@ contains
     real(dp), intent(in) :: h, gravity(3)
     type(error_t), intent(inout) :: err
     logical, allocatable :: persistent(:), held(:)
+    real(dp), allocatable :: u_start(:)
     integer :: n, i, n_contacts, c, kept
-    real(dp) :: u, separating_limit
+    real(dp) :: separating_limit
+    logical :: grew
     n = bodies%n_owned + bodies%n_ghost
     n_contacts = 0
     self%pass_step = h
@@ -478,22 +480,30 @@ contains
       ! Contacts separating faster than gravity can close in the step need no impulse; leaving
       ! them out keeps a body that bounces off the floor on its exact parabola.
       separating_limit = 2.0_dp*norm2(gravity)*h + self%velocity_tolerance
-      allocate (held(n))
+      allocate (held(n), u_start(n_contacts))
       held = .false.
       do c = 1, n_contacts
-        u = normal_velocity(bodies, self%contacts(c))
-        persistent(c) = u >= -self%rest_speed .and. u <= separating_limit
-        if (persistent(c)) then
-          held(self%contacts(c)%a) = .not. bodies%fixed(self%contacts(c)%a)
-          held(self%contacts(c)%b) = .not. bodies%fixed(self%contacts(c)%b)
-        end if
+        u_start(c) = normal_velocity(bodies, self%contacts(c))
+        persistent(c) = u_start(c) >= -self%rest_speed .and. u_start(c) <= separating_limit
+        if (persistent(c)) call hold(c)
       end do
       ! ... but a body the pass will push keeps all its contacts in the band as constraints,
-      ! or the push could turn a separating contact of it into an approaching one.
-      do c = 1, n_contacts
-        if (persistent(c)) cycle
-        if (held(self%contacts(c)%a) .or. held(self%contacts(c)%b)) &
-          persistent(c) = normal_velocity(bodies, self%contacts(c)) >= -self%rest_speed
+      ! or the push could turn a separating contact of it into an approaching one. That
+      ! holds the body at the contact's other end too, so this runs to a fixed point: with
+      ! one sweep, a chain held -> held -> spinning body left the last body's separating
+      ! contact out, the pass turned it into an approaching one, the event at time 0 took
+      ! the pass back, and the run stalled (27-cube pile).
+      do
+        grew = .false.
+        do c = 1, n_contacts
+          if (persistent(c)) cycle
+          if (.not. (held(self%contacts(c)%a) .or. held(self%contacts(c)%b))) cycle
+          if (u_start(c) < -self%rest_speed) cycle
+          persistent(c) = .true.
+          call hold(c)
+          grew = .true.
+        end do
+        if (.not. grew) exit
       end do
       kept = count(persistent)
       if (kept < n_contacts) then
@@ -508,6 +518,14 @@ contains
         call flight%clear_load(i)
       end do
     end if
+  contains
+
+    subroutine hold(c)
+      integer, intent(in) :: c
+      held(self%contacts(c)%a) = .not. bodies%fixed(self%contacts(c)%a)
+      held(self%contacts(c)%b) = .not. bodies%fixed(self%contacts(c)%b)
+    end subroutine hold
+
   end subroutine stage_contact_pass
 
   !> Safety net after the impulse solvers: the exact projection can stop at its iteration cap
