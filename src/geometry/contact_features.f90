@@ -144,7 +144,7 @@ contains
               n_prim = n_prim + 1
               if (d2 > tol2) cycle
               n = -nb_a(:, jb)
-              if (region /= REGION_FACE .and. d2 > 0.0_dp) n = (q - tree_a%tri(:, ka, sa))/sqrt(d2)
+              if (region /= REGION_FACE .and. d2 > 0.0_dp) n = boundary_normal((q - tree_a%tri(:, ka, sa))/sqrt(d2), n)
               call add(FEATURE_VERTEX_FACE, [tree_a%tri_nodes(ka, sa), 0], [tree_b%face_id(sb), 0], d2, &
                        tree_a%tri(:, ka, sa), q, n)
             end do
@@ -190,12 +190,23 @@ contains
             n_prim = n_prim + 1
             if (d2 > tol2) cycle
             n = tree_a%normal(:, sa)
-            if (region /= REGION_FACE .and. d2 > 0.0_dp) n = (tb(:, kb, jb) - q)/sqrt(d2)
+            if (region /= REGION_FACE .and. d2 > 0.0_dp) n = boundary_normal((tb(:, kb, jb) - q)/sqrt(d2), n)
             call add(FEATURE_FACE_VERTEX, [tree_a%face_id(sa), 0], [tree_b%tri_nodes(kb, sb), 0], d2, q, tb(:, kb, jb), n)
           end do
         end do
       end do
     end subroutine leaf_pair
+
+    !> The normal of a vertex whose closest point lies on a triangle's edge or corner: the
+    !> direction between the points, unless that is the face normal up to round-off (a
+    !> corner straight above the diagonal of a box face: at a gap of 1e-6 m the difference of
+    !> the points tilted it by 1e-10 rad, and a box landing flat drifted sideways at 1e-10 m/s).
+    pure function boundary_normal(direction, face_normal) result(n)
+      real(dp), intent(in) :: direction(3), face_normal(3)
+      real(dp) :: n(3)
+      n = direction
+      if (dot_product(direction, face_normal) >= 1.0_dp - 1.0e-12_dp) n = face_normal
+    end function boundary_normal
 
     !> Appends a feature; points and normal given in A's frame.
     subroutine add(kind, fa, fb, d2, pa, pb, n)
