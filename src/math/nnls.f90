@@ -1,8 +1,21 @@
 !> Non-negative least squares, min |E x - f| subject to x >= 0 (Lawson & Hanson, "Solving
-!> Least Squares Problems", 1974, ch. 23). Finite, exact up to round-off, and well defined
-!> when E is rank deficient (the inner solves use a rank-revealing QR, LAPACK dgelsy), which
-!> is what simultaneous contact impulses need: four coplanar contacts of a box on a floor
-!> give a singular contact matrix, but E x (the velocity change) is still unique.
+!> Least Squares Problems", 1974, ch. 23), with the passive columns' QR factorisation
+!> updated in place instead of recomputed (Bjorck, "Numerical Methods for Least Squares
+!> Problems", 1996, sec. 3.2.4 and 5.2.2).
+!>
+!> E_P = Q R over the passive columns P is kept as Q (m x k, orthonormal columns) and R
+!> (k x k, upper triangular), with Q^T f beside them. A column entering P is orthogonalised
+!> against Q by classical Gram-Schmidt with one reorthogonalisation (CGS2: orthogonal to
+!> working precision); a column leaving P leaves R upper Hessenberg, and Givens rotations
+!> restore it (applied to Q and Q^T f too). Each least-squares solve is then one back
+!> substitution: O(m k) per Lawson-Hanson step instead of the O(m k^2) of a fresh
+!> factorisation (which was most of the run time of a landing pile, docs/benchmarks.md).
+!>
+!> Rank deficiency, which simultaneous contact impulses produce (four coplanar contacts of
+!> a box on a floor span three directions), is handled by never letting a dependent column
+!> into P: a column whose component orthogonal to span(E_P) is below rank_tolerance of its
+!> norm is held out until P loses a column. At a Lawson-Hanson optimum such a column's
+!> gradient is zero anyway; E x (the velocity change) is unique whatever x is chosen.
 module nnls
   use kinds, only: dp
   use error_status, only: error_t, ERR_NUMERIC
@@ -11,17 +24,19 @@ module nnls
   private
   public :: solve_nnls
 
-  interface
-    subroutine dgelsy(m, n, nrhs, a, lda, b, ldb, jpvt, rcond, rank, work, lwork, info)
-      import :: dp
-      integer, intent(in) :: m, n, nrhs, lda, ldb, lwork
-      real(dp), intent(inout) :: a(lda, *), b(ldb, *)
-      integer, intent(inout) :: jpvt(*)
-      real(dp), intent(in) :: rcond
-      integer, intent(out) :: rank, info
-      real(dp), intent(inout) :: work(*)
-    end subroutine dgelsy
-  end interface
+  !> A column is dependent on the passive ones when its orthogonal part is below this
+  !> fraction of its norm (dgelsy's rcond was 1e-12 on the whole block; a single column's
+  !> angle to the span is a sharper test, so a little looser).
+  real(dp), parameter :: rank_tolerance = 1.0e-10_dp
+
+  !> The passive set and its QR factorisation.
+  type :: passive_qr_t
+    integer :: k = 0
+    real(dp), allocatable :: q(:, :)    !< m x kmax, columns 1..k orthonormal
+    real(dp), allocatable :: r(:, :)    !< kmax x kmax, upper triangular in 1..k
+    real(dp), allocatable :: qtf(:)     !< Q^T f, 1..k
+    integer, allocatable :: column(:)   !< column of E at passive position p
+  end type passive_qr_t
 
 contains
 
@@ -35,25 +50,40 @@ contains
     integer, intent(out) :: iterations
     type(error_t), intent(inout) :: err
     logical, intent(out), optional :: converged
-    integer :: m, n, n_passive, j, t, max_iterations, inner
-    logical :: passive(size(e, 2))
+    type(passive_qr_t) :: qr
+    integer :: m, n, j, p, t, max_iterations, inner, kmax
+    logical :: passive(size(e, 2)), blocked(size(e, 2)), added
     real(dp) :: w(size(e, 2)), z(size(e, 2)), residual(size(e, 1)), tolerance, alpha, ratio
-    integer :: index_of(size(e, 2))
 
     m = size(e, 1)
     n = size(e, 2)
     x = 0.0_dp
     passive = .false.
+    blocked = .false.
     iterations = 0
     if (present(converged)) converged = .true.
+    if (n == 0) return
     max_iterations = 3*n + 10
+    kmax = min(m, n)
+    allocate (qr%q(m, kmax), qr%r(kmax, kmax), qr%qtf(kmax), qr%column(kmax))
     ! Dual-feasibility tolerance relative to the problem's scale: round-off in E^T r is about
     ! eps |E| |f|; 100 eps keeps the loop from chasing noise.
     tolerance = 100.0_dp*epsilon(1.0_dp)*max(norm2(e), tiny(1.0_dp))*max(norm2(f), tiny(1.0_dp))
     residual = f
     w = matmul(transpose(e), residual)
-    do
-      if (all(passive) .or. .not. any(.not. passive .and. w > tolerance)) exit
+    outer: do
+      ! The most violated column that can enter (independent of the passive ones).
+      added = .false.
+      do
+        if (.not. any(.not. passive .and. .not. blocked .and. w > tolerance)) exit
+        t = maxloc(w, dim=1, mask=.not. passive .and. .not. blocked)
+        if (qr%k < kmax) then
+          call add_column(qr, e(:, t), f, t, added)
+        end if
+        if (added) exit
+        blocked(t) = .true.
+      end do
+      if (.not. added) exit outer
       iterations = iterations + 1
       if (iterations > max_iterations) then
         if (present(converged)) then
@@ -63,70 +93,224 @@ contains
         end if
         return
       end if
-      t = maxloc(w, dim=1, mask=.not. passive)
       passive(t) = .true.
       do inner = 1, n + 1
-        n_passive = count(passive)
-        index_of(1:n_passive) = pack([(j, j=1, n)], passive)
-        call least_squares(e(:, index_of(1:n_passive)), f, z(1:n_passive), err)
-        if (err%failed()) return
-        if (all(z(1:n_passive) > 0.0_dp)) exit
+        call back_substitute(qr, z)
+        if (all(z(1:qr%k) > 0.0_dp)) exit
         ! Step from x towards z only as far as feasibility allows, then drop the variables
         ! that reached zero.
         alpha = 1.0_dp
-        do j = 1, n_passive
-          if (z(j) <= 0.0_dp) then
-            ratio = x(index_of(j))/(x(index_of(j)) - z(j))
+        do p = 1, qr%k
+          j = qr%column(p)
+          if (z(p) <= 0.0_dp) then
+            ratio = x(j)/(x(j) - z(p))
             alpha = min(alpha, ratio)
           end if
         end do
-        do j = 1, n_passive
-          x(index_of(j)) = x(index_of(j)) + alpha*(z(j) - x(index_of(j)))
-          if (x(index_of(j)) <= 0.0_dp .or. (z(j) <= 0.0_dp .and. x(index_of(j)) < tiny(1.0_dp)*1.0e10_dp)) then
-            x(index_of(j)) = 0.0_dp
-            passive(index_of(j)) = .false.
+        do p = 1, qr%k
+          j = qr%column(p)
+          x(j) = x(j) + alpha*(z(p) - x(j))
+        end do
+        do p = qr%k, 1, -1
+          j = qr%column(p)
+          if (x(j) <= 0.0_dp .or. (z(p) <= 0.0_dp .and. x(j) < tiny(1.0_dp)*1.0e10_dp)) then
+            x(j) = 0.0_dp
+            passive(j) = .false.
+            call remove_column(qr, p)
+            blocked = .false.    ! the span shrank: held-out columns may be independent now
           end if
         end do
-        if (.not. any(passive)) exit
+        if (qr%k == 0) exit
       end do
       x = 0.0_dp
-      n_passive = count(passive)
-      if (n_passive > 0) then
-        index_of(1:n_passive) = pack([(j, j=1, n)], passive)
-        do j = 1, n_passive
-          x(index_of(j)) = max(z(j), 0.0_dp)
+      if (qr%k > 0) then
+        call back_substitute(qr, z)
+        do p = 1, qr%k
+          x(qr%column(p)) = max(z(p), 0.0_dp)
         end do
       end if
       residual = f - matmul(e, x)
       w = matmul(transpose(e), residual)
-    end do
+    end do outer
+    call spread_over_dependent(qr, e, x, w, tolerance, passive)
   end subroutine solve_nnls
 
-  !> Minimum-norm least-squares solution of A z = f (A: m x k), rank-revealing.
-  subroutine least_squares(a, f, z, err)
-    real(dp), intent(in) :: a(:, :), f(:)
+  !> E x is unique, x is not when columns outside P have zero gradient and lie in the span
+  !> of P and each other (the four corners of a box face: the answer above loads two
+  !> diagonal corners and leaves the others at zero, which friction, bounded by each
+  !> contact's own normal impulse, would feel). Moves x within {z >= 0, E z = E x} towards
+  !> the minimum-norm point over P and those columns, as the rank-revealing least-squares
+  !> solve did: a box on four corners then carries a quarter on each.
+  !> The zero-gradient columns join the factorisation one by one (at x = 0) while they are
+  !> independent; each dependent one, e_d = E_B c_d over the basis B so grown, gives the null
+  !> direction (-c_d on B, 1 on d).
+  subroutine spread_over_dependent(qr_in, e, x, w, tolerance, passive)
+    type(passive_qr_t), intent(in) :: qr_in
+    real(dp), intent(in) :: e(:, :), w(:), tolerance
+    real(dp), intent(inout) :: x(:)
+    logical, intent(in) :: passive(:)
+    type(passive_qr_t) :: qr
+    integer, allocatable :: dependent(:)
+    real(dp), allocatable :: c(:, :), gram(:, :), y(:), step(:), coeff(:)
+    real(dp) :: zero_rhs(size(e, 1)), alpha
+    integer :: j, n_dep, d, k, i, info
+    logical :: added
+    if (qr_in%k == 0) return
+    qr = qr_in
+    zero_rhs = 0.0_dp
+    allocate (dependent(size(x)))
+    n_dep = 0
+    do j = 1, size(x)
+      if (passive(j) .or. abs(w(j)) > tolerance) cycle
+      if (norm2(e(:, j)) <= 0.0_dp) cycle
+      added = .false.
+      if (qr%k < size(qr%q, 2)) call add_column(qr, e(:, j), zero_rhs, j, added)
+      if (added) cycle
+      n_dep = n_dep + 1
+      dependent(n_dep) = j
+    end do
+    if (n_dep == 0) return
+    ! c(:, d) = R^-1 Q^T e_d: the basis combination equal to dependent column d (to the rank
+    ! tolerance; the check below keeps only exact ones).
+    k = qr%k
+    allocate (c(k, n_dep))
+    do d = 1, n_dep
+      coeff = matmul(e(:, dependent(d)), qr%q(:, 1:k))
+      if (norm2(e(:, dependent(d)) - matmul(qr%q(:, 1:k), coeff)) > 10.0_dp*rank_tolerance*norm2(e(:, dependent(d)))) &
+        return
+      do i = k, 1, -1
+        c(i, d) = (coeff(i) - dot_product(qr%r(i, i + 1:k), c(i + 1:k, d)))/qr%r(i, i)
+      end do
+    end do
+    ! Minimum norm along the null directions N: y = (N^T N)^-1 N^T x, z = x - N y, with
+    ! N^T N = C^T C + I (symmetric positive definite, at least the identity).
+    gram = matmul(transpose(c), c)
+    allocate (y(n_dep))
+    do d = 1, n_dep
+      gram(d, d) = gram(d, d) + 1.0_dp
+      y(d) = x(dependent(d)) - dot_product(c(:, d), x(qr%column(1:k)))
+    end do
+    call cholesky_solve_small(gram, y, info)
+    if (info /= 0) return
+    ! step = z - x = -N y
+    allocate (step(size(x)))
+    step = 0.0_dp
+    step(qr%column(1:k)) = matmul(c, y)
+    step(dependent(1:n_dep)) = -y
+    ! As far towards z as x >= 0 allows (E x does not change along N).
+    alpha = 1.0_dp
+    do j = 1, size(x)
+      if (step(j) < 0.0_dp) alpha = min(alpha, x(j)/(-step(j)))
+    end do
+    x = max(x + alpha*step, 0.0_dp)
+  end subroutine spread_over_dependent
+
+  !> Solves G y = b in place (G small, symmetric positive definite); info /= 0 if not.
+  pure subroutine cholesky_solve_small(g, y, info)
+    real(dp), intent(inout) :: g(:, :), y(:)
+    integer, intent(out) :: info
+    integer :: i, j, n
+    real(dp) :: d
+    n = size(y)
+    info = 0
+    do j = 1, n
+      d = g(j, j) - dot_product(g(j, 1:j - 1), g(j, 1:j - 1))
+      if (d <= 0.0_dp) then
+        info = j
+        return
+      end if
+      g(j, j) = sqrt(d)
+      do i = j + 1, n
+        g(i, j) = (g(i, j) - dot_product(g(i, 1:j - 1), g(j, 1:j - 1)))/g(j, j)
+      end do
+    end do
+    do i = 1, n
+      y(i) = (y(i) - dot_product(g(i, 1:i - 1), y(1:i - 1)))/g(i, i)
+    end do
+    do i = n, 1, -1
+      y(i) = (y(i) - dot_product(g(i + 1:n, i), y(i + 1:n)))/g(i, i)
+    end do
+  end subroutine cholesky_solve_small
+
+  !> Appends column t (values a) to the factorisation unless it is dependent on the passive
+  !> columns (added = .false.).
+  subroutine add_column(qr, a, f, t, added)
+    type(passive_qr_t), intent(inout) :: qr
+    real(dp), intent(in) :: a(:), f(:)
+    integer, intent(in) :: t
+    logical, intent(out) :: added
+    real(dp) :: v(size(a)), c(qr%k), rcol(qr%k + 1), norm_a, rho
+    integer :: k, pass
+    k = qr%k
+    added = .false.
+    norm_a = norm2(a)
+    if (norm_a <= 0.0_dp) return
+    v = a
+    rcol = 0.0_dp
+    do pass = 1, 2
+      if (k > 0) then
+        c = matmul(v, qr%q(:, 1:k))
+        v = v - matmul(qr%q(:, 1:k), c)
+        rcol(1:k) = rcol(1:k) + c
+      end if
+    end do
+    rho = norm2(v)
+    if (rho <= rank_tolerance*norm_a) return
+    qr%q(:, k + 1) = v/rho
+    qr%r(1:k, k + 1) = rcol(1:k)
+    qr%r(k + 1, k + 1) = rho
+    qr%r(k + 1, 1:k) = 0.0_dp
+    qr%qtf(k + 1) = dot_product(qr%q(:, k + 1), f)
+    qr%column(k + 1) = t
+    qr%k = k + 1
+    added = .true.
+  end subroutine add_column
+
+  !> Removes passive position p: R loses a column, Givens rotations on rows p..k restore the
+  !> triangle, and the same rotations keep Q and Q^T f consistent.
+  subroutine remove_column(qr, p)
+    type(passive_qr_t), intent(inout) :: qr
+    integer, intent(in) :: p
+    integer :: j, k, m
+    real(dp) :: a, b, c, s, rr, row_j(qr%k), row_j1(qr%k), qj(size(qr%q, 1))
+    k = qr%k
+    m = size(qr%q, 1)
+    do j = p, k - 1
+      qr%r(1:k, j) = qr%r(1:k, j + 1)
+      qr%column(j) = qr%column(j + 1)
+    end do
+    ! Columns p..k-1 now have one entry below the diagonal, r(j+1, j).
+    do j = p, k - 1
+      a = qr%r(j, j)
+      b = qr%r(j + 1, j)
+      rr = hypot(a, b)
+      if (rr == 0.0_dp) cycle
+      c = a/rr
+      s = b/rr
+      row_j(j:k - 1) = qr%r(j, j:k - 1)
+      row_j1(j:k - 1) = qr%r(j + 1, j:k - 1)
+      qr%r(j, j:k - 1) = c*row_j(j:k - 1) + s*row_j1(j:k - 1)
+      qr%r(j + 1, j:k - 1) = -s*row_j(j:k - 1) + c*row_j1(j:k - 1)
+      qr%r(j + 1, j) = 0.0_dp
+      qj = qr%q(:, j)
+      qr%q(:, j) = c*qj + s*qr%q(:, j + 1)
+      qr%q(:, j + 1) = -s*qj + c*qr%q(:, j + 1)
+      a = qr%qtf(j)
+      qr%qtf(j) = c*a + s*qr%qtf(j + 1)
+      qr%qtf(j + 1) = -s*a + c*qr%qtf(j + 1)
+    end do
+    qr%k = k - 1
+  end subroutine remove_column
+
+  !> z(1:k) = R^-1 Q^T f: the least-squares solution on the passive columns.
+  pure subroutine back_substitute(qr, z)
+    type(passive_qr_t), intent(in) :: qr
     real(dp), intent(out) :: z(:)
-    type(error_t), intent(inout) :: err
-    real(dp), allocatable :: a_copy(:, :), rhs(:, :), work(:)
-    integer, allocatable :: pivots(:)
-    integer :: m, k, rank, info, lwork
-    real(dp) :: query(1)
-    m = size(a, 1)
-    k = size(a, 2)
-    a_copy = a
-    allocate (rhs(max(m, k), 1), pivots(k))
-    rhs = 0.0_dp
-    rhs(1:m, 1) = f
-    pivots = 0
-    call dgelsy(m, k, 1, a_copy, m, rhs, max(m, k), pivots, 1.0e-12_dp, rank, query, -1, info)
-    lwork = int(query(1))
-    allocate (work(lwork))
-    call dgelsy(m, k, 1, a_copy, m, rhs, max(m, k), pivots, 1.0e-12_dp, rank, work, lwork, info)
-    if (info /= 0) then
-      call err%set(ERR_NUMERIC, 'LAPACK dgelsy failed with info = '//str(info))
-      return
-    end if
-    z = rhs(1:k, 1)
-  end subroutine least_squares
+    integer :: i, k
+    k = qr%k
+    do i = k, 1, -1
+      z(i) = (qr%qtf(i) - dot_product(qr%r(i, i + 1:k), z(i + 1:k)))/qr%r(i, i)
+    end do
+  end subroutine back_substitute
 
 end module nnls
