@@ -50,6 +50,9 @@ module simulation
     real(dp) :: last_progress = 0.0_dp
     real(dp) :: last_dt = 0.0_dp
     real(dp) :: integration_wall = 0.0_dp     !< wall time spent moving bodies, this run [s]
+    real(dp) :: contact_pass_wall = 0.0_dp    !< wall time in the resting-contact pass, this run [s]
+    real(dp) :: detection_wall = 0.0_dp       !< wall time in broad phase and time of contact [s]
+    real(dp) :: resolve_wall = 0.0_dp         !< wall time in impacts and sleeping [s]
     type(system_totals_t) :: initial          !< totals at t = 0 (carried through restarts)
     real(dp) :: max_energy_error = 0.0_dp     !< largest relative energy error seen
     real(dp) :: max_momentum_error = 0.0_dp
@@ -265,12 +268,16 @@ contains
       h = self%collisions%limit_step(self%bodies, self%propagator, self%deck%run%gravity, h)
       ! Resting contacts first: their forces over the step become the bodies' loads, so
       ! bodies at rest keep whole steps (docs/contact.md).
+      clock = par%wtime()
       call self%collisions%contact_pass(self%bodies, self%shapes, self%propagator, h, self%deck%run%gravity, err)
       if (err%failed()) return
+      self%contact_pass_wall = self%contact_pass_wall + (par%wtime() - clock)
+      clock = par%wtime()
       h = self%collisions%limit_step(self%bodies, self%propagator, self%deck%run%gravity, h)
       call self%collisions%earliest_contact(self%bodies, self%shapes, self%propagator, self%time, h, &
                                             self%deck%run%gravity, self%deck%integrator, h_event, err)
       if (err%failed()) return
+      self%detection_wall = self%detection_wall + (par%wtime() - clock)
       h_planned = h
       if (h_event < h) then
         h = h_event
@@ -287,10 +294,12 @@ contains
       self%step = self%step + 1
       self%last_dt = h
       self%time = time_new
+      clock = par%wtime()
       call self%collisions%return_unused_pass(self%bodies, self%propagator, h)
       call self%collisions%resolve(self%bodies, self%shapes, self%propagator, h, h_planned, err)
       if (err%failed()) return
       call self%collisions%settle(self%bodies, self%shapes, self%propagator, h)
+      self%resolve_wall = self%resolve_wall + (par%wtime() - clock)
       hits_output = self%time >= self%next_output
       hits_checkpoint = self%time >= self%next_checkpoint
       if (hits_output .or. self%time >= t_end .or. self%time >= self%next_history) then
@@ -455,6 +464,9 @@ contains
     write (*, '(a,es10.3,a,es10.3,a)') '  integration time     ', self%integration_wall, ' s (', &
       real(self%n_total, dp)*real(self%step - self%first_step, dp)/max(self%integration_wall, tiny(1.0_dp)), &
       ' body updates per s)'
+    write (*, '(a)') '  time by phase        contact pass '//str(self%contact_pass_wall, '(es9.3)')// &
+      ' s, detection '//str(self%detection_wall, '(es9.3)')//' s, impacts and sleeping '// &
+      str(self%resolve_wall, '(es9.3)')//' s'
     write (*, '(a,i0,a,i0,a)') '  bodies               ', self%n_total, ' in ', self%shapes%n_shapes, ' distinct shapes'
     if (self%collisions%stats%events > 0) write (*, '(a)') &
       '  (with contacts, energy is an invariant only for e = 1, momentum and angular momentum only '// &
