@@ -77,6 +77,7 @@ contains
     logical, intent(in), optional :: warm_applied
     logical :: apply_warm
     real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), lam(:, :), v_prev(:, :), w_prev(:, :), reach(:)
+    real(dp), allocatable :: turn_a(:, :, :), turn_b(:, :, :)
     integer, allocatable :: members(:)
     integer :: n_members, b
     real(dp) :: k(3, 3), u(3), un, ut(2), dl(3), new_t(2), limit, change, p(3)
@@ -89,10 +90,14 @@ contains
     tangential_only = present(fixed_normal)
     apply_warm = .true.
     if (present(warm_applied)) apply_warm = .not. warm_applied
-    allocate (basis(3, 3, m), k_nn(m), k_tt(2, 2, m), lam(3, m))
+    allocate (basis(3, 3, m), k_nn(m), k_tt(2, 2, m), lam(3, m), turn_a(3, 3, m), turn_b(3, 3, m))
     do c = 1, m
       basis(:, 1, c) = contacts(c)%normal
       call tangent_basis(contacts(c)%normal, basis(:, 2, c), basis(:, 3, c))
+      ! Angular velocity change of each body per unit impulse along each basis direction
+      ! (world I^-1 (r x d)), once per solve: the sweeps then turn no quaternions.
+      call turn_responses(contacts(c)%a, c, turn_a(:, :, c))
+      call turn_responses(contacts(c)%b, c, turn_b(:, :, c))
       k = effective_mass(bodies, contacts(c))
       k_nn(c) = dot_product(basis(:, 1, c), matmul(k, basis(:, 1, c)))
       k_tt(:, :, c) = matmul(transpose(basis(:, 2:3, c)), matmul(k, basis(:, 2:3, c)))
@@ -136,7 +141,7 @@ contains
           u = relative_velocity(bodies, contacts(c))
           un = dot_product(basis(:, 1, c), u)
           dl(1) = max(lam(1, c) - un/k_nn(c), 0.0_dp) - lam(1, c)
-          if (dl(1) /= 0.0_dp) call apply(bodies, contacts(c), dl(1)*basis(:, 1, c))
+          if (dl(1) /= 0.0_dp) call apply_local(c, [dl(1), 0.0_dp, 0.0_dp])
           lam(1, c) = lam(1, c) + dl(1)
         end if
         if (contacts(c)%friction > 0.0_dp) then
@@ -145,7 +150,7 @@ contains
           limit = contacts(c)%friction*lam(1, c)
           new_t = friction_update(k_tt(:, :, c), lam(2:3, c), ut, limit)
           dl(2:3) = new_t - lam(2:3, c)
-          if (any(dl(2:3) /= 0.0_dp)) call apply(bodies, contacts(c), matmul(basis(:, 2:3, c), dl(2:3)))
+          if (any(dl(2:3) /= 0.0_dp)) call apply_local(c, [0.0_dp, dl(2), dl(3)])
           lam(2:3, c) = new_t
         end if
       end do
@@ -163,6 +168,36 @@ contains
     end do
 
   contains
+
+    subroutine turn_responses(i, cc, turn)
+      integer, intent(in) :: i, cc
+      real(dp), intent(out) :: turn(3, 3)
+      integer :: d
+      turn = 0.0_dp
+      if (bodies%fixed(i)) return
+      do d = 1, 3
+        turn(:, d) = world_inverse_inertia(bodies, i, cross(contacts(cc)%point - bodies%x(:, i), basis(:, d, cc)))
+      end do
+    end subroutine turn_responses
+
+    !> Impulse basis(:, :, c) dl on b and its opposite on a (as apply, with the responses
+    !> computed once).
+    subroutine apply_local(cc, dl)
+      integer, intent(in) :: cc
+      real(dp), intent(in) :: dl(3)
+      real(dp) :: p(3)
+      p = basis(:, 1, cc)*dl(1) + basis(:, 2, cc)*dl(2) + basis(:, 3, cc)*dl(3)
+      associate (a => contacts(cc)%a, b => contacts(cc)%b)
+        if (.not. bodies%fixed(b)) then
+          bodies%v(:, b) = bodies%v(:, b) + bodies%inv_mass(b)*p
+          bodies%w(:, b) = bodies%w(:, b) + (turn_b(:, 1, cc)*dl(1) + turn_b(:, 2, cc)*dl(2) + turn_b(:, 3, cc)*dl(3))
+        end if
+        if (.not. bodies%fixed(a)) then
+          bodies%v(:, a) = bodies%v(:, a) - bodies%inv_mass(a)*p
+          bodies%w(:, a) = bodies%w(:, a) - (turn_a(:, 1, cc)*dl(1) + turn_a(:, 2, cc)*dl(2) + turn_a(:, 3, cc)*dl(3))
+        end if
+      end associate
+    end subroutine apply_local
 
     subroutine enlist(i)
       integer, intent(in) :: i
