@@ -107,13 +107,15 @@ contains
   !> Pose (x, q) body i will have after a step of tau from time_now, computed exactly as
   !> advance would compute it: what time of contact needs, so that the bound it uses holds
   !> for the motion the bodies really make. The body's state is not changed.
-  subroutine flight_pose_at(self, bodies, i, time_now, tau, gravity, config, x, q)
+  !> omega, when present: the angular velocity then (world) [rad/s].
+  subroutine flight_pose_at(self, bodies, i, time_now, tau, gravity, config, x, q, omega)
     class(free_flight_t), intent(inout) :: self
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: i
     real(dp), intent(in) :: time_now, tau, gravity(3)
     type(integrator_config_t), intent(in) :: config
     real(dp), intent(out) :: x(3), q(4)
+    real(dp), intent(out), optional :: omega(3)
     real(dp) :: v(3), a(3), w(3), alpha(3), dt
     integer :: iterations
     logical :: converged
@@ -121,6 +123,7 @@ contains
     if (bodies%fixed(i)) then
       x = bodies%x(:, i)
       q = bodies%q(:, i)
+      if (present(omega)) omega = bodies%w(:, i)
       return
     end if
     if (self%exact) then
@@ -128,6 +131,7 @@ contains
       dt = (time_now + tau) - self%t0(i)
       x = self%x0(:, i) + self%v0(:, i)*dt + (0.5_dp*dt*dt)*self%acceleration(i, gravity)
       call self%rotors(i)%evaluate(dt, q, w)
+      if (present(omega)) omega = w
     else
       x = bodies%x(:, i)
       v = bodies%v(:, i)
@@ -139,6 +143,7 @@ contains
       call newmark_rotate(q, w, alpha, bodies%inertia(:, i), no_torque, tau, config%newmark_beta, &
                           config%newmark_gamma, config%rotation_tolerance, config%rotation_max_iterations, &
                           iterations, converged)
+      if (present(omega)) omega = w
     end if
   end subroutine flight_pose_at
 
