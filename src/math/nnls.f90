@@ -51,7 +51,7 @@ contains
     type(error_t), intent(inout) :: err
     logical, intent(out), optional :: converged
     type(passive_qr_t) :: qr
-    integer :: m, n, j, p, t, max_iterations, inner, kmax
+    integer :: m, n, j, p, t, max_iterations, inner, kmax, blocking
     logical :: passive(size(e, 2)), blocked(size(e, 2)), added
     real(dp) :: w(size(e, 2)), z(size(e, 2)), residual(size(e, 1)), tolerance, alpha, ratio
 
@@ -100,17 +100,24 @@ contains
         ! Step from x towards z only as far as feasibility allows, then drop the variables
         ! that reached zero.
         alpha = 1.0_dp
+        blocking = 0
         do p = 1, qr%k
           j = qr%column(p)
           if (z(p) <= 0.0_dp) then
             ratio = x(j)/(x(j) - z(p))
-            alpha = min(alpha, ratio)
+            if (ratio < alpha .or. blocking == 0) then
+              alpha = min(alpha, ratio)
+              blocking = p
+            end if
           end if
         end do
         do p = 1, qr%k
           j = qr%column(p)
           x(j) = x(j) + alpha*(z(p) - x(j))
         end do
+        ! The variable that set the step reaches zero exactly (in floating point x - alpha (x
+        ! - z) may land a rounding above it, and the loop would then never drop it).
+        x(qr%column(blocking)) = 0.0_dp
         do p = qr%k, 1, -1
           j = qr%column(p)
           if (x(j) <= 0.0_dp .or. (z(p) <= 0.0_dp .and. x(j) < tiny(1.0_dp)*1.0e10_dp)) then
