@@ -29,6 +29,8 @@ second; penetration = the most negative contact distance the engine reports afte
     .venv/bin/python tools/bench_resting.py --quick          # smaller piles, ~1 min
     .venv/bin/python tools/bench_resting.py --scenes stack pyramid --rest-gap 0   # touching
     .venv/bin/python tools/bench_resting.py --scenes pyramid --engines mujoco
+    .venv/bin/python tools/bench_resting.py --scenes piles --piles cubes --pile-n 8 \
+        --engines pybullet mujoco ricochet      # the suite's pile, ricochet beside them
     .venv/bin/python tools/bench_resting.py --write-decks    # input/validation/*.nml
     .venv/bin/python tools/bench_resting.py --check-decks    # decks on disk == scenes?
 
@@ -635,6 +637,88 @@ def run_pile(e, sc, t_cap, budget, hold=PILE_HOLD):
                 container=c, ke_history=ke_hist[::10])
 
 
+class RicochetPiles:
+    """ricochet on the same pile: the scene's deck (output every PILE_CHECK_DT, overlap check
+    on) run by the binary (RICOCHET_EXE, default build/app/ricochet) until t_cap or the wall
+    budget. Rest and the hold after it from history.csv (kinetic energy against the potential
+    energy released by all moving bodies); bodies that left and pile depth from the last
+    frame; penetration: none by construction (the smallest gap the run ever computed is kept
+    as smallest_gap). Wall time: the whole process (set-up and output included)."""
+    name = 'ricochet'
+
+    def __init__(self):
+        self.exe = os.environ.get('RICOCHET_EXE', os.path.join(ROOT, 'build', 'app', 'ricochet'))
+        if not os.path.exists(self.exe):
+            raise ImportError('no ricochet binary at %s (build it, or set RICOCHET_EXE)' % self.exe)
+        self.version = 'build/app/ricochet (Release)'
+
+    def settings(self):
+        return dict(exe=self.exe, dt_max=DECK_DT_MAX, output_interval=PILE_CHECK_DT)
+
+
+def run_pile_ricochet(e, sc, t_cap, budget, hold=PILE_HOLD):
+    import glob
+    import h5py
+    import shutil
+    import subprocess
+    import tempfile
+    c, sh = sc.container, sc.shape
+    work = tempfile.mkdtemp(prefix='ricochet_pile_')
+    try:
+        deck = os.path.join(work, 'pile.nml')
+        with open(deck, 'w') as f:
+            f.write(sc.deck(t_end=t_cap, interval=PILE_CHECK_DT, check_overlaps=True))
+        out = os.path.join(work, 'out')
+        stop, t0 = None, time.perf_counter()
+        try:
+            proc = subprocess.run([e.exe, deck, '--output-dir', out], capture_output=True, text=True,
+                                  timeout=budget)
+            if proc.returncode != 0:
+                raise RuntimeError('ricochet failed: %s' % (proc.stdout + proc.stderr).strip().splitlines()[0])
+        except subprocess.TimeoutExpired:
+            stop = 'wall budget'
+        wall = time.perf_counter() - t0
+        hist = np.genfromtxt(os.path.join(out, 'history.csv'), delimiter=',', names=True)
+        t = hist['time_s']
+        ke = hist['kinetic_translational_J'] + hist['kinetic_rotational_J']
+        released = hist['potential_J'][0] - hist['potential_J']
+        ratio = np.where(released > 0, ke / np.maximum(released, 1e-300), np.inf)
+        rest = np.nonzero((ratio < REST_RATIO) & (t > 0))[0]
+        t_rest = float(t[rest[0]]) if len(rest) else None
+        hold_ratio = float(np.max(ratio[(t >= t_rest) & (t <= t_rest + hold)])) if t_rest is not None else 0.0
+        def frame_state(path):
+            with h5py.File(path, 'r') as h5:
+                names = []
+                h5.visit(names.append)
+                get = lambda end: h5[[k for k in names if k.endswith(end)][0]][...].reshape(-1, 3)[len(sc.statics):]
+                return get('position'), get('/velocity')
+        # frame k is at k PILE_CHECK_DT (outputs land on multiples of the interval)
+        frames_list = sorted(glob.glob(os.path.join(out, 'frames', '*.h5')))
+        hold_speed = 0.0
+        if t_rest is not None:
+            for k, path in enumerate(frames_list):
+                if t_rest - 1e-9 <= k * PILE_CHECK_DT <= t_rest + hold + 1e-9:
+                    hold_speed = max(hold_speed, float(np.max(np.linalg.norm(frame_state(path)[1], axis=1))))
+        x, v = frame_state(frames_list[-1])
+        half = c['side'] / 2
+        gone = (np.abs(x[:, 0]) > half) | (np.abs(x[:, 1]) > half) | (x[:, 2] < 0.0)
+        inside = x[~gone]
+        height = float(np.percentile(inside[:, 2], 95)) + sh.h / 2 if len(inside) else 0.0
+        t_sim = float(t[-1])
+        return dict(dt=DECK_DT_MAX, steps=int(hist['steps_1'][-1]), t_sim=t_sim, wall_step=wall,
+                    wall_per_sim_s=wall / t_sim, sim_s_per_wall_s=t_sim / wall, max_pen=0.0,
+                    smallest_gap=float(np.min(hist['min_separation_m'])), pen_every=1, t_rest=t_rest,
+                    hold=min(hold, t_sim - t_rest) if t_rest is not None else 0.0, hold_max_ratio=hold_ratio,
+                    hold_max_speed=hold_speed,
+                    stopped=stop, ke_over_released=float(ratio[-1]), left=int(gone.sum()), n=sc.n,
+                    height=height, depth=height / sh.h,
+                    phi=len(inside) * sh.volume / (c['side'] ** 2 * height) if height > 0 else 0.0,
+                    container=c, events=int(hist['events_1'][-1]),
+                    ke_history=[(float(a), float(b), float(r), 0) for a, b, r in zip(t, ke, released)][::10])
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
 def pile_row(r):
     label = {'l_shapes': 'L-prisms'}.get(r['pile'], r['pile'])
     if r['t_rest'] is None:
@@ -670,7 +754,8 @@ def main():
     ap.add_argument('--piles', nargs='+', default=list(PILE_SPECS), help='cubes, tetrahedra, l_shapes')
     ap.add_argument('--pile-n', type=int, help='bodies per pile (overrides the sizes above)')
     ap.add_argument('--engines', nargs='*', default=['pybullet', 'mujoco'],
-                    help='none: only rewrite the pile tables from the JSON of earlier runs')
+                    help='pybullet, mujoco, ricochet (piles only: the binary runs the same deck); '
+                         'none: only rewrite the pile tables from the JSON of earlier runs')
     ap.add_argument('--t-cap', type=float, default=PILE_T_CAP, help='simulated time cap of a pile [s]')
     ap.add_argument('--budget', type=float, default=PILE_BUDGET, help='stepping wall time cap of one pile run [s]')
     ap.add_argument('--hold', type=float, default=PILE_HOLD, help='simulated time watched after rest [s]')
@@ -705,7 +790,7 @@ def main():
     engines = []
     for name in a.engines:
         try:
-            engines.append({'pybullet': RestingBullet, 'mujoco': RestingMujoco}[name]())
+            engines.append({'pybullet': RestingBullet, 'mujoco': RestingMujoco, 'ricochet': RicochetPiles}[name]())
         except ImportError as err:
             print('skipping %s: %s (pip install %s)' % (name, err, name), file=sys.stderr)
     sfx = '_quick' if a.quick else ''
@@ -720,10 +805,10 @@ def main():
 
     for scene, make, t_end, what in (('stack', stack_scene, STACK_T, 'top cube drift'),
                                      ('pyramid', pyramid_scene, PYR_T, 'largest drift of any cube')):
-        if scene not in a.scenes or not engines:
+        if scene not in a.scenes or not [e for e in engines if e.name != 'ricochet']:
             continue
         rows, runs = [], []
-        for e in engines:
+        for e in [e for e in engines if e.name != 'ricochet']:   # ricochet: the decks, docs/benchmarks.md
             sc = make()
             r = run_fixed(e, sc, t_end)
             r['settings'] = e.settings()
@@ -754,7 +839,8 @@ def main():
             sc = pile_scene(kind, a.quick, a.pile_n)
             for e in engines:
                 t0 = time.perf_counter()
-                r = dict(engine=e.name, pile=kind, budget=a.budget, **run_pile(e, sc, a.t_cap, a.budget, a.hold))
+                runner = run_pile_ricochet if e.name == 'ricochet' else run_pile
+                r = dict(engine=e.name, pile=kind, budget=a.budget, **runner(e, sc, a.t_cap, a.budget, a.hold))
                 r['wall_total'] = time.perf_counter() - t0
                 r['settings'] = e.settings()
                 runs = [q for q in runs if (q['engine'], q['pile'], q['n']) != (e.name, kind, sc.n)] + [r]
