@@ -33,6 +33,7 @@ module collision_stage
   implicit none
   private
   public :: collision_stage_t, collision_stats_t
+  logical, parameter :: debug_events = .true.
 
   type :: collision_stats_t
     integer(i8) :: events = 0                  !< steps that ended at a contact
@@ -75,11 +76,22 @@ module collision_stage
     type(sleep_t) :: sleep                    !< islands at rest held still until touched
     integer, allocatable :: band_pairs(:, :)  !< pairs with contact points in the band at the last pass
     integer :: n_band_pairs = 0
+    ! The step's candidate pairs (prepare): from the grid with every body's travel over the
+    ! step as its margin, with their gaps at the step's start, shared by the contact pass and
+    ! the time of contact (the pass changes velocities, not positions).
+    real(dp), allocatable :: pair_gap0(:)     !< gap at the step's start (a lower bound where far) [m]
+    real(dp), allocatable :: pair_normal(:, :) !< normal there, from the first body to the second
+    logical, allocatable :: pair_far(:)       !< cannot come within the contact band in the step
+    logical, allocatable :: pair_in_pass(:)   !< the contact pass solved contacts of this pair
+    real(dp), allocatable :: grid_margin(:)   !< travel bound each body was entered with [m]
+    real(dp), allocatable :: turn(:)          !< how far turning moves any surface point in the step [m]
+    integer, allocatable :: contact_pair(:)   !< the pass: candidate pair of each contact point
     type(contact_t), allocatable :: contacts(:)
     integer(i8), allocatable :: keys(:, :)
     type(contact_feature_t), allocatable :: features(:)
   contains
     procedure :: init => stage_init
+    procedure :: prepare => stage_prepare
     procedure :: contact_pass => stage_contact_pass
     procedure :: return_unused_pass => stage_return_unused_pass
     procedure :: limit_step => stage_limit_step
@@ -170,6 +182,104 @@ contains
     end do
   end function stage_limit_step
 
+  !> The step's candidate pairs, once per step before the contact pass. Every moving body
+  !> enters the grid with its travel bound over the step h as margin, |v| h + |a| h^2: the
+  !> parabola needs |a| h^2/2, the motion at v + g h that the contact pass gives a loaded
+  !> body |a| h^2 (translation only: the bounding sphere does not grow when a body turns).
+  !> Pairs that cannot come within the contact band in the step are far; the others get
+  !> their gap and normal at the step's start, which the contact pass and the time of
+  !> contact share (the pass changes velocities, not positions).
+  !> margins, when present: the travel bounds to enter the bodies with instead (the pass
+  !> made a body faster than its margin allowed); gaps already known are kept.
+  subroutine stage_prepare(self, bodies, shapes, flight, h, gravity, err, margins)
+    class(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(in) :: flight
+    real(dp), intent(in) :: h, gravity(3)
+    type(error_t), intent(inout) :: err
+    real(dp), intent(in), optional :: margins(:)
+    real(dp), allocatable :: lower(:, :), upper(:, :), old_gap(:), old_normal(:, :)
+    integer, allocatable :: old_pairs(:, :)
+    logical, allocatable :: old_far(:), old_in_pass(:)
+    integer :: n, i, j, k, n_old, slot
+    real(dp) :: reach
+
+    n = bodies%n_owned + bodies%n_ghost
+    n_old = 0
+    if (present(margins)) then
+      n_old = self%n_pairs
+      old_pairs = self%pairs(:, 1:n_old)
+      old_gap = self%pair_gap0(1:n_old)
+      old_normal = self%pair_normal(:, 1:n_old)
+      old_far = self%pair_far(1:n_old)
+      old_in_pass = self%pair_in_pass(1:n_old)
+    end if
+    self%n_pairs = 0
+    if (n < 2) return
+    if (allocated(self%grid_margin)) then
+      if (size(self%grid_margin) < n) deallocate (self%grid_margin, self%turn)
+    end if
+    if (.not. allocated(self%grid_margin)) allocate (self%grid_margin(n), self%turn(n))
+    do i = 1, n
+      self%turn(i) = turning_reach(shapes, bodies, i)*h
+      if (bodies%fixed(i)) then
+        self%grid_margin(i) = 0.0_dp
+      else if (present(margins)) then
+        self%grid_margin(i) = margins(i)
+      else
+        self%grid_margin(i) = norm2(bodies%v(:, i))*h + norm2(flight%acceleration(i, gravity))*h*h
+      end if
+    end do
+    allocate (lower(3, n), upper(3, n))
+    call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
+    call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)
+    if (err%failed()) return
+    call self%grid%candidate_pairs(2, self%grid_margin(1:n), self%pairs, self%n_pairs, err, n_owned=bodies%n_owned)
+    if (err%failed()) return
+    if (allocated(self%pair_gap0)) then
+      if (size(self%pair_gap0) < self%n_pairs) deallocate (self%pair_gap0, self%pair_normal, self%pair_far, &
+                                                            self%pair_in_pass)
+    end if
+    if (.not. allocated(self%pair_gap0)) allocate (self%pair_gap0(max(self%n_pairs, 16)), &
+      self%pair_normal(3, max(self%n_pairs, 16)), self%pair_far(max(self%n_pairs, 16)), &
+      self%pair_in_pass(max(self%n_pairs, 16)))
+    slot = 1
+    do k = 1, self%n_pairs
+      i = self%pairs(1, k)
+      j = self%pairs(2, k)
+      self%pair_in_pass(k) = .false.
+      ! Both lists are sorted by (first, second): walk the old one alongside.
+      do while (slot <= n_old)
+        if (old_pairs(1, slot) > i .or. (old_pairs(1, slot) == i .and. old_pairs(2, slot) >= j)) exit
+        slot = slot + 1
+      end do
+      if (slot <= n_old) then
+        if (old_pairs(1, slot) == i .and. old_pairs(2, slot) == j .and. .not. old_far(slot)) then
+          self%pair_gap0(k) = old_gap(slot)
+          self%pair_normal(:, k) = old_normal(:, slot)
+          self%pair_far(k) = .false.
+          self%pair_in_pass(k) = old_in_pass(slot)
+          cycle
+        end if
+      end if
+      self%pair_gap0(k) = huge(1.0_dp)
+      self%pair_far(k) = .true.
+      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      ! Bounding spheres and boxes first: a pair that cannot come within the contact band in
+      ! this step costs no closest-point query.
+      reach = self%grid_margin(i) + self%grid_margin(j)
+      self%pair_gap0(k) = gap_lower_bound(shapes, bodies, i, j, reach + 2.0_dp*(self%target + self%tolerance), &
+                                          self%turn(i), self%turn(j))
+      if (self%pair_gap0(k) - reach > 2.0_dp*(self%target + self%tolerance)) cycle
+      self%pair_far(k) = .false.
+      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                    self%pair_gap0(k), self%pair_normal(:, k))
+      self%stats%pair_tests = self%stats%pair_tests + 1
+      self%stats%min_separation = min(self%stats%min_separation, self%pair_gap0(k))
+    end do
+  end subroutine stage_prepare
+
   !> Earliest time of contact in [0, h] over all candidate pairs: h_event <= h. The pairs
   !> that reach contact at h_event are kept for resolve.
   subroutine stage_earliest_contact(self, bodies, shapes, flight, time_now, h, gravity, config, h_event, err)
@@ -181,7 +291,7 @@ contains
     type(integrator_config_t), intent(in) :: config
     real(dp), intent(out) :: h_event
     type(error_t), intent(inout) :: err
-    real(dp), allocatable :: lower(:, :), upper(:, :), margin(:)
+    real(dp), allocatable :: margin(:), dbg_info(:, :)
     type(pair_oracle_t) :: oracle
     type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
@@ -195,16 +305,23 @@ contains
     h_event = h
     self%n_events = 0
     if (n < 2) return
-    allocate (lower(3, n), upper(3, n), margin(n))
-    call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
+    ! The pairs of prepare, unless the contact pass made a body travel further than the
+    ! margin it was entered with (or the grid cut the step since): then the grid again,
+    ! keeping the gaps already known.
+    allocate (margin(n))
     do i = 1, n
       ! The bounding sphere does not move when the body turns: only translation grows it.
       margin(i) = 0.0_dp
       if (.not. bodies%fixed(i)) margin(i) = norm2(bodies%v(:, i))*h + 0.5_dp*norm2(flight%acceleration(i, gravity))*h*h
     end do
-    call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)
-    if (err%failed()) return
-    call self%grid%candidate_pairs(2, margin, self%pairs, self%n_pairs, err, n_owned=bodies%n_owned)
+    if (.not. allocated(self%grid_margin)) then
+      call self%prepare(bodies, shapes, flight, h, gravity, err)
+    else if (size(self%grid_margin) < n) then
+      call self%prepare(bodies, shapes, flight, h, gravity, err)
+    else if (any(margin > self%grid_margin(1:n)) .or. &
+             any([(turning_reach(shapes, bodies, i)*h > self%turn(i), i=1, n)])) then
+      call self%prepare(bodies, shapes, flight, h, gravity, err, margins=max(margin, self%grid_margin(1:n)))
+    end if
     if (err%failed()) return
     if (self%n_pairs == 0) return
 
@@ -214,27 +331,14 @@ contains
     oracle%config = config
     oracle%time_now = time_now
     oracle%gravity = gravity
-    allocate (pair_time(self%n_pairs), pair_gap0(self%n_pairs), pair_normal(3, self%n_pairs), far(self%n_pairs), &
-              moved(n))
+    allocate (pair_time(self%n_pairs), moved(n))
+    if (debug_events) allocate (dbg_info(8, self%n_pairs))
     pair_time = huge(1.0_dp)
     moved = .false.
-    ! Gaps at the step's start first: the distance correction below needs the neighbours'.
-    ! Bounding spheres first: a pair whose spheres cannot come within the contact band in
-    ! this step (they do not grow when the bodies turn) costs no closest-point query.
-    do k = 1, self%n_pairs
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      pair_gap0(k) = huge(1.0_dp)
-      far(k) = .true.
-      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      pair_gap0(k) = gap_lower_bound(shapes, bodies, i, j, margin(i) + margin(j) + 2.0_dp*(self%target + self%tolerance))
-      if (pair_gap0(k) - (margin(i) + margin(j)) > 2.0_dp*(self%target + self%tolerance)) cycle
-      far(k) = .false.
-      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
-                    pair_gap0(k), pair_normal(:, k))
-      self%stats%pair_tests = self%stats%pair_tests + 1
-      self%stats%min_separation = min(self%stats%min_separation, pair_gap0(k))
-    end do
+    ! Gaps at the step's start (prepare): the distance correction below needs the neighbours'.
+    pair_gap0 = self%pair_gap0(1:self%n_pairs)
+    pair_normal = self%pair_normal(:, 1:self%n_pairs)
+    far = self%pair_far(1:self%n_pairs)
     ! In the contact band, measure whether any contact point really approaches: the bound's
     ! turning term (Omega r) says "may approach" for every spinning pair in contact.
     ! Receding pairs settle towards the floor instead of stopping the run. A receding pair
@@ -251,7 +355,10 @@ contains
       normal0 = pair_normal(:, k)
       motion = pair_motion(shapes, bodies, flight, i, j, gravity)
       if (band_rate(motion, normal0) <= self%velocity_tolerance) cycle
-      if (approaching(self, bodies, shapes, i, j, gap0, normal0)) cycle
+      if (approaching(self, bodies, shapes, i, j, gap0, normal0)) then
+        if (debug_events) call debug_pair(self, bodies, shapes, i, j, gap0, normal0)
+        cycle
+      end if
       receding(k) = .true.
       if (gap0 <= 0.5_dp*self%target + self%tolerance) then
         if (separate_pair(self, bodies, shapes, flight, k, pair_gap0)) then
@@ -283,6 +390,18 @@ contains
       ! steps; such a contact is a resting one, not an impact whose timing matters.
       safe = 0.0_dp
       hovering = .false.
+      if (self%pair_in_pass(k) .and. gap0 > self%target + self%tolerance) then
+        ! The contact pass solved this pair before it touched (speculative, or just above
+        ! the band): it may come down into the band within the step, to the settling floor;
+        ! only an approach below floor + tolerance is an event.
+        if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
+          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target + self%tolerance, &
+                                 h_event)
+          if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
+        end if
+        call advance_pair(oracle, motion, gap0, normal0, h_event, 0.5_dp*self%target, self%tolerance, &
+                          0.5_dp*self%target, self%velocity_tolerance, self%max_iterations, res, safe_time=safe)
+      else
       if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
         if (gap0 > self%target + self%tolerance) then
           floor = self%target + self%tolerance
@@ -297,12 +416,16 @@ contains
       call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, 0.5_dp*self%target, &
                         self%velocity_tolerance, self%max_iterations, res, receding=receding(k), safe_time=safe, &
                         hovering=hovering)
+      end if
       self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
       self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
       if (receding(k) .and. res%contact .and. res%time > 0.0_dp .and. res%time < h_event .and. flight%exact) &
         call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_event, res)
       if (res%capped) self%stats%capped = self%stats%capped + 1
       if (res%contact .or. res%capped) then
+        if (debug_events) dbg_info(:, k) = [merge(1.0_dp, 0.0_dp, self%pair_in_pass(k)), &
+          merge(1.0_dp, 0.0_dp, receding(k)), merge(1.0_dp, 0.0_dp, res%capped), merge(1.0_dp, 0.0_dp, hovering), &
+          gap0, res%time, motion%omega_r_a + motion%omega_r_b, real(res%iterations, dp)]
         pair_time(k) = res%time
         if (res%time == 0.0_dp) then
           self%stalled_pair = [bodies%gid(i), bodies%gid(j)]
@@ -318,6 +441,7 @@ contains
     self%n_events = 0
     do k = 1, self%n_pairs
       if (pair_time(k) <= h_event) then
+        if (debug_events) write (*, '(a,2i5,4f3.0,3es11.3,f5.0,es11.3)') 'DBG cut', self%pairs(:, k), dbg_info(:, k), h
         self%n_events = self%n_events + 1
         self%event_pairs(:, self%n_events) = self%pairs(:, k)
       end if
@@ -433,6 +557,27 @@ contains
     end do
   end function approaching
 
+  subroutine debug_pair(self, bodies, shapes, i, j, gap, normal)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    integer, intent(in) :: i, j
+    real(dp), intent(in) :: gap, normal(3)
+    type(contact_t), allocatable :: points(:)
+    integer(i8), allocatable :: keys(:, :)
+    integer :: c, n_points, l
+    n_points = 0
+    call pair_contact_points(shapes, bodies, i, j, gap, normal, self%contact_tolerance, points, keys, n_points, &
+                             self%features)
+    do c = 1, n_points
+      write (*, '(a,2i4,3es12.4,a,7i4)') 'DBG appr', i, j, normal_velocity(bodies, points(c)), points(c)%gap, gap, ' key ', keys(3:7, c)
+    end do
+    do l = 1, size(self%contacts)
+      if (self%contacts(l)%a == i .and. self%contacts(l)%b == j) write (*, '(a,3es12.4,a,7i4)') 'DBG pass', &
+        normal_velocity(bodies, self%contacts(l)), self%contacts(l)%gap, self%contacts(l)%allowed_approach, ' key ', self%keys(3:7, l)
+    end do
+  end subroutine debug_pair
+
   !> Distance correction (a receding pair that has settled to the floor, where the bound
   !> would allow no further step): moves the pair apart along its normal towards a gap of
   !> two minimum separations, split by inverse mass (a fixed body does not move), positions
@@ -523,10 +668,20 @@ contains
     end do
   end subroutine gather_contacts
 
-  !> The contact pass at the start of a step of h [s] (resting_contact): candidate pairs
-  !> from one ring of the grid, contact points within the band, and those not approaching
-  !> faster than the rest speed solved as persistent contacts (e = 0, friction). Sets the
-  !> loads the propagator applies over the step.
+  !> The contact pass at the start of a step of h [s] (resting_contact), over the step's
+  !> candidate pairs (prepare):
+  !>  - contact points of pairs within the contact band (gap up to target + tolerance +
+  !>    contact tolerance) that do not separate faster than gravity can close in the step
+  !>    are persistent: for inelastic pairs (e = 0) at any approach speed (an inelastic impact
+  !>    is what the pass does), for others only up to the rest speed (faster ones are
+  !>    impacts, left to the event with their restitution);
+  !>  - inelastic pairs further apart that can reach the band within the step get
+  !>    speculative contact points: they may approach at up to the speed that closes their
+  !>    gap to the target in the step (contact_t%allowed_approach), and join the solve when
+  !>    they would approach faster (they would touch within the step). A landing is then
+  !>    solved with the step instead of cutting it at the time of contact; conservative
+  !>    advancement still checks the motion (the pair may come down to the settling floor).
+  !> Solved with e = 0 and friction; sets the loads the propagator applies over the step.
   subroutine stage_contact_pass(self, bodies, shapes, flight, h, gravity, err)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
@@ -536,20 +691,25 @@ contains
     type(error_t), intent(inout) :: err
     logical, allocatable :: persistent(:), held(:)
     real(dp), allocatable :: u_start(:)
-    integer :: n, i, n_contacts, c, kept
+    integer :: n, i, n_contacts, c, kept, round
     real(dp) :: separating_limit
-    logical :: grew
+    logical :: grew, woke
     n = bodies%n_owned + bodies%n_ghost
     n_contacts = 0
     self%pass_step = h
     self%n_band_pairs = 0
     if (n >= 2 .and. h > 0.0_dp) then
-      call collect_band_contacts(self, bodies, shapes, flight, n_contacts, err)
-      if (err%failed()) return
+      ! Each round wakes at least one island: at most as many rounds as islands asleep.
+      do round = 1, n + 1
+        call pass_contacts(self, bodies, shapes, h, n_contacts)
+        call wake_reached(self, bodies, flight, h, gravity, n_contacts, woke)
+        if (.not. woke) exit
+        ! the woken bodies' pairs with each other were static-static pairs, never listed
+        call self%prepare(bodies, shapes, flight, h, gravity, err)
+        if (err%failed()) return
+      end do
       call record_band_pairs(self, n_contacts)
     end if
-    ! Persistent: not approaching faster than the rest speed (faster ones are impacts, left
-    ! to the event with their restitution).
     kept = 0
     if (n_contacts > 0) then
       allocate (persistent(n_contacts))
@@ -560,21 +720,27 @@ contains
       held = .false.
       do c = 1, n_contacts
         u_start(c) = normal_velocity(bodies, self%contacts(c))
-        persistent(c) = u_start(c) >= -self%rest_speed .and. u_start(c) <= separating_limit
+        if (self%contacts(c)%allowed_approach > 0.0_dp) then
+          persistent(c) = speculative_active(c)
+        else if (self%contacts(c)%restitution <= 0.0_dp) then
+          persistent(c) = u_start(c) <= separating_limit
+        else
+          persistent(c) = u_start(c) >= -self%rest_speed .and. u_start(c) <= separating_limit
+        end if
         if (persistent(c)) call hold(c)
       end do
-      ! ... but a body the pass will push keeps all its contacts in the band as constraints,
-      ! or the push could turn a separating contact of it into an approaching one. That
-      ! holds the body at the contact's other end too, so this runs to a fixed point: with
-      ! one sweep, a chain held -> held -> spinning body left the last body's separating
-      ! contact out, the pass turned it into an approaching one, the event at time 0 took
-      ! the pass back, and the run stalled (27-cube pile).
+      ! ... but a body the pass will push keeps all its contacts in the band (and its
+      ! speculative ones) as constraints, or the push could turn a separating contact of it
+      ! into an approaching one. That holds the body at the contact's other end too, so this
+      ! runs to a fixed point: with one sweep, a chain held -> held -> spinning body left the
+      ! last body's separating contact out, the pass turned it into an approaching one, the
+      ! event at time 0 took the pass back, and the run stalled (27-cube pile).
       do
         grew = .false.
         do c = 1, n_contacts
           if (persistent(c)) cycle
           if (.not. (held(self%contacts(c)%a) .or. held(self%contacts(c)%b))) cycle
-          if (u_start(c) < -self%rest_speed) cycle
+          if (self%contacts(c)%restitution > 0.0_dp .and. u_start(c) < -self%rest_speed) cycle
           persistent(c) = .true.
           call hold(c)
           grew = .true.
@@ -582,6 +748,15 @@ contains
         if (.not. grew) exit
       end do
       kept = count(persistent)
+      if (debug_events) then
+        do c = 1, n_contacts
+          if (persistent(c)) write (*, '(a,2i4,4es12.4,3f8.4,4i5,3f9.4)') 'DBG kept', self%contacts(c)%a, self%contacts(c)%b, &
+            self%contacts(c)%gap, self%contacts(c)%allowed_approach, u_start(c), real(self%keys(3,c)), self%contacts(c)%normal, self%keys(4:7,c), self%contacts(c)%point
+        end do
+      end if
+      do c = 1, n_contacts
+        if (persistent(c)) self%pair_in_pass(self%contact_pair(c)) = .true.
+      end do
       if (kept < n_contacts) then
         self%contacts(1:kept) = pack(self%contacts(1:n_contacts), persistent)
         self%keys(:, 1:kept) = self%keys(:, pack([(c, c=1, n_contacts)], persistent))
@@ -596,13 +771,113 @@ contains
     end if
   contains
 
-    subroutine hold(c)
-      integer, intent(in) :: c
-      held(self%contacts(c)%a) = .not. bodies%fixed(self%contacts(c)%a)
-      held(self%contacts(c)%b) = .not. bodies%fixed(self%contacts(c)%b)
+    subroutine hold(cc)
+      integer, intent(in) :: cc
+      held(self%contacts(cc)%a) = .not. bodies%fixed(self%contacts(cc)%a)
+      held(self%contacts(cc)%b) = .not. bodies%fixed(self%contacts(cc)%b)
     end subroutine hold
 
+    !> A speculative contact joins on its own when, with gravity's impulse for the step, it
+    !> would approach faster than it may: the pair would touch within the step.
+    logical function speculative_active(cc)
+      integer, intent(in) :: cc
+      speculative_active = u_start(cc) + gravity_closing(bodies, self%contacts(cc), gravity, h) < &
+                           -self%contacts(cc)%allowed_approach
+    end function speculative_active
+
   end subroutine stage_contact_pass
+
+  !> Change of a contact's normal velocity from gravity's impulse over h for the moving bodies
+  !> (zero when both move: gravity does not change their relative velocity) [m/s].
+  pure real(dp) function gravity_closing(bodies, c, gravity, h)
+    type(bodies_t), intent(in) :: bodies
+    type(contact_t), intent(in) :: c
+    real(dp), intent(in) :: gravity(3), h
+    gravity_closing = 0.0_dp
+    if (.not. bodies%fixed(c%b)) gravity_closing = gravity_closing + dot_product(c%normal, gravity)*h
+    if (.not. bodies%fixed(c%a)) gravity_closing = gravity_closing - dot_product(c%normal, gravity)*h
+  end function gravity_closing
+
+  !> The contact pass's contact points, from the step's candidate pairs (prepare) into
+  !> self%contacts(1:n_contacts), with their keys and candidate pairs: every pair within the
+  !> contact band, and the inelastic pairs that can reach it within the step h as
+  !> speculative contacts (allowed_approach: the speed that closes the gap to the target in
+  !> the step; every contact point of such a pair uses the pair's gap, the smallest).
+  subroutine pass_contacts(self, bodies, shapes, h, n_contacts)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    real(dp), intent(in) :: h
+    integer, intent(out) :: n_contacts
+    integer :: k, i, j, first, c
+    real(dp) :: gap, band, aim, restitution, reach
+    integer, allocatable :: grown(:)
+    n_contacts = 0
+    band = self%target + self%tolerance + self%contact_tolerance
+    aim = self%target + 0.5_dp*self%tolerance
+    do k = 1, self%n_pairs
+      if (self%pair_far(k)) cycle
+      i = self%pairs(1, k)
+      j = self%pairs(2, k)
+      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      gap = self%pair_gap0(k)
+      restitution = self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j))
+      ! how far the pair can close in the step (translation and turning)
+      reach = self%grid_margin(i) + self%grid_margin(j) + self%turn(i) + self%turn(j)
+      if (gap > band) then
+        if (restitution > 0.0_dp) cycle
+        if (gap - band > reach) cycle
+      end if
+      first = n_contacts + 1
+      if (restitution > 0.0_dp) then
+        call pair_contact_points(shapes, bodies, i, j, gap, self%pair_normal(:, k), self%contact_tolerance, &
+                                 self%contacts, self%keys, n_contacts, self%features)
+      else
+        ! every feature pair that can touch within the step (another edge of a tumbling body
+        ! coming down), each allowed to close to the target and no further
+        call pair_contact_points(shapes, bodies, i, j, gap, self%pair_normal(:, k), self%contact_tolerance, &
+                                 self%contacts, self%keys, n_contacts, self%features, search=min(reach, band + reach - gap))
+      end if
+      self%contacts(first:n_contacts)%restitution = restitution
+      self%contacts(first:n_contacts)%friction = self%materials%pair_friction(bodies%group_id(i), bodies%group_id(j))
+      do c = first, n_contacts
+        self%contacts(c)%allowed_approach = 0.0_dp
+        if (self%contacts(c)%gap > band) self%contacts(c)%allowed_approach = (self%contacts(c)%gap - aim)/h
+      end do
+      if (.not. allocated(self%contact_pair)) allocate (self%contact_pair(max(64, size(self%contacts))))
+      if (size(self%contact_pair) < n_contacts) then
+        allocate (grown(2*n_contacts))
+        grown(1:first - 1) = self%contact_pair(1:first - 1)
+        call move_alloc(grown, self%contact_pair)
+      end if
+      self%contact_pair(first:n_contacts) = k
+    end do
+  end subroutine pass_contacts
+
+  !> Sleeping islands that a moving body reaches wake: contacts in the band, and speculative
+  !> ones that would touch within the step (the impact is then solved with the island's
+  !> real masses, not against a support that cannot give way).
+  subroutine wake_reached(self, bodies, flight, h, gravity, n_contacts, woke)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(free_flight_t), intent(inout) :: flight
+    real(dp), intent(in) :: h, gravity(3)
+    integer, intent(in) :: n_contacts
+    logical, intent(out) :: woke
+    logical, allocatable :: reached(:)
+    integer :: c
+    woke = .false.
+    if (self%sleep%n_asleep == 0 .or. n_contacts == 0) return
+    allocate (reached(n_contacts))
+    do c = 1, n_contacts
+      associate (con => self%contacts(c))
+        reached(c) = con%allowed_approach <= 0.0_dp
+        if (.not. reached(c)) reached(c) = normal_velocity(bodies, con) + gravity_closing(bodies, con, gravity, h) < &
+                                           -con%allowed_approach
+      end associate
+    end do
+    call self%sleep%wake_touching(bodies, flight, pack(self%contacts(1:n_contacts), reached), woke)
+  end subroutine wake_reached
 
   !> Safety net after the impulse solvers: the exact projection can stop at its iteration cap
   !> on rank-deficient groups (many contact points on few bodies), leaving contacts that
@@ -708,6 +983,17 @@ contains
       end if
     end if
     call remove_residual_approach(self, bodies, self%contacts(1:n_contacts))
+    if (debug_events) then
+      do c = 1, n_contacts
+        if (normal_velocity(bodies, self%contacts(c)) < -1.0e-3_dp) write (*, '(a,2i4,3es12.4)') 'DBG after resolve', &
+          self%contacts(c)%a, self%contacts(c)%b, normal_velocity(bodies, self%contacts(c)), self%contacts(c)%gap
+      end do
+      write (*, *) 'DBG resolve n_contacts', n_contacts
+      do c = 1, n_contacts
+        if (self%contacts(c)%a == 21 .and. self%contacts(c)%b == 25) write (*, '(a,2es12.4,5i4)') 'DBG res 21-25', &
+          normal_velocity(bodies, self%contacts(c)), self%contacts(c)%gap, self%keys(3:7, c)
+      end do
+    end if
     do i = 1, bodies%n_owned
       if (any(v_old(:, i) /= bodies%v(:, i)) .or. any(w_old(:, i) /= bodies%w(:, i))) call flight%release(i)
     end do
@@ -765,6 +1051,7 @@ contains
     end if
     self%n_band_pairs = 0
     do c = 1, n_contacts
+      if (self%contacts(c)%allowed_approach > 0.0_dp) cycle   ! speculative: not touching
       ! contact points of one pair are consecutive: keep the first of each run
       if (self%n_band_pairs > 0) then
         if (self%band_pairs(1, self%n_band_pairs) == self%contacts(c)%a .and. &
@@ -805,21 +1092,25 @@ contains
     motion%v_b = bodies%v(:, j)
     motion%a_a = merge(0.0_dp, 1.0_dp, bodies%fixed(i))*flight%acceleration(i, gravity)
     motion%a_b = merge(0.0_dp, 1.0_dp, bodies%fixed(j))*flight%acceleration(j, gravity)
-    motion%omega_r_a = omega_r(i)
-    motion%omega_r_b = omega_r(j)
+    motion%omega_r_a = turning_reach(shapes, bodies, i)
+    motion%omega_r_b = turning_reach(shapes, bodies, j)
     motion%convex = shapes%shapes(bodies%shape_id(i))%convex .and. shapes%shapes(bodies%shape_id(j))%convex
-  contains
-    real(dp) function omega_r(k)
-      integer, intent(in) :: k
-      if (bodies%fixed(k) .or. shapes%shapes(bodies%shape_id(k))%kind == SHAPE_SPHERE) then
-        omega_r = 0.0_dp
-      else
-        ! 1e-12 relative slack: the propagators conserve T to round-off, not exactly.
-        omega_r = (1.0_dp + 1.0e-12_dp)*angular_speed_bound(bodies%inertia(:, k), &
-                  quat_rotate_inverse(bodies%q(:, k), bodies%w(:, k)))*shapes%shapes(bodies%shape_id(k))%bounding_radius
-      end if
-    end function omega_r
   end function pair_motion
+
+  !> The fastest any surface point of body k moves relative to its centre of mass by turning,
+  !> Omega R [m/s] (zero for analytic spheres: turning moves none of their surface).
+  pure real(dp) function turning_reach(shapes, bodies, k)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: k
+    if (bodies%fixed(k) .or. shapes%shapes(bodies%shape_id(k))%kind == SHAPE_SPHERE) then
+      turning_reach = 0.0_dp
+    else
+      ! 1e-12 relative slack: the propagators conserve T to round-off, not exactly.
+      turning_reach = (1.0_dp + 1.0e-12_dp)*angular_speed_bound(bodies%inertia(:, k), &
+                      quat_rotate_inverse(bodies%q(:, k), bodies%w(:, k)))*shapes%shapes(bodies%shape_id(k))%bounding_radius
+    end if
+  end function turning_reach
 
   subroutine oracle_gap_at(self, t, gap, normal)
     class(pair_oracle_t), intent(inout) :: self

@@ -140,7 +140,8 @@ contains
         if (.not. tangential_only) then
           u = relative_velocity(bodies, contacts(c))
           un = dot_product(basis(:, 1, c), u)
-          dl(1) = max(lam(1, c) - un/k_nn(c), 0.0_dp) - lam(1, c)
+          ! (a speculative contact may approach at up to its allowed speed)
+          dl(1) = max(lam(1, c) - (un + contacts(c)%allowed_approach)/k_nn(c), 0.0_dp) - lam(1, c)
           if (dl(1) /= 0.0_dp) call apply_local(c, [dl(1), 0.0_dp, 0.0_dp])
           lam(1, c) = lam(1, c) + dl(1)
         end if

@@ -37,6 +37,11 @@ module impulse_solver
     real(dp) :: restitution = 0.0_dp  !< e of this pair (0 below the rest speed; the group uses
                                       !< the smallest over its approaching contacts)
     real(dp) :: friction = 0.0_dp     !< Coulomb mu of this pair
+    !> A speculative contact (the contact pass: a pair not yet in the contact band that can
+    !> reach it within the step) may keep approaching at up to this speed, the speed that
+    !> closes its gap to the target in exactly the step; 0 for contacts in the band [m/s].
+    real(dp) :: allowed_approach = 0.0_dp
+    real(dp) :: gap = 0.0_dp          !< distance of the two features when found [m]
   end type contact_t
 
   type :: impulse_stats_t
@@ -203,7 +208,11 @@ contains
     ! Inelastic projection over all contacts of the group.
     allocate (lambda(m), lambda_elastic(m))
     lambda_elastic = 0.0_dp
-    call solve_nnls(e_matrix, -vt0, lambda, iterations, err, converged)
+    if (any(contacts%allowed_approach > 0.0_dp)) then
+      call solve_biased_projection(e_matrix, vt0, contacts%allowed_approach, lambda, iterations, err, converged)
+    else
+      call solve_nnls(e_matrix, -vt0, lambda, iterations, err, converged)
+    end if
     if (err%failed()) return
     if (.not. converged) stats%nnls_unconverged = stats%nnls_unconverged + 1
     stats%nnls_iterations = stats%nnls_iterations + iterations
@@ -258,6 +267,38 @@ contains
     end subroutine enlist
 
   end subroutine solve_group
+
+  !> The inelastic projection with speculative contacts: the velocity closest to vt0 (in the
+  !> mass norm) with u_i = E_i^T vt >= -s_i, s the allowed approach speeds. Its dual is the
+  !> bound-constrained problem min_{lambda >= 0} lambda^T K lambda / 2 + lambda^T (u0 + s),
+  !> which is non-negative least squares once rows eps I are appended to E and -s/eps to the
+  !> right-hand side: |E lambda + vt0|^2 + |eps lambda + s/eps|^2 is the dual's objective
+  !> (times two, plus a constant) plus eps^2 |lambda|^2. With eps^2 a 1e-10 fraction of the
+  !> largest diagonal of K the constraints hold to 1e-10 of the velocity change, below the
+  !> solvers' tolerances (a larger eps loses digits of s/eps in the residual), and
+  !> the appended rows make the problem full rank (no dependent columns held out).
+  subroutine solve_biased_projection(e_matrix, vt0, allowed, lambda, iterations, err, converged)
+    real(dp), intent(in) :: e_matrix(:, :), vt0(:), allowed(:)
+    real(dp), intent(out) :: lambda(:)
+    integer, intent(out) :: iterations
+    type(error_t), intent(inout) :: err
+    logical, intent(out) :: converged
+    real(dp), allocatable :: augmented(:, :), rhs(:)
+    real(dp) :: eps
+    integer :: rows, m, i
+    rows = size(e_matrix, 1)
+    m = size(e_matrix, 2)
+    eps = 1.0e-5_dp*sqrt(maxval(sum(e_matrix**2, dim=1)))
+    allocate (augmented(rows + m, m), rhs(rows + m))
+    augmented = 0.0_dp
+    augmented(1:rows, :) = e_matrix
+    rhs(1:rows) = -vt0
+    do i = 1, m
+      augmented(rows + i, i) = eps
+      rhs(rows + i) = -allowed(i)/eps
+    end do
+    call solve_nnls(augmented, rhs, lambda, iterations, err, converged)
+  end subroutine solve_biased_projection
 
   !> M^(1/2) (v, w): sqrt(m) v and R diag(sqrt(I)) R^T w.
   pure function scaled_velocity(bodies, i) result(vt)

@@ -70,20 +70,29 @@ contains
   !> minus both bounding radii) and (distance from one body's centre to the other's bounding
   !> box in that body's principal frame, minus the first one's bounding radius). The second
   !> matters for walls and floors, whose bounding spheres are huge.
-  pure real(dp) function gap_lower_bound(shapes, bodies, i, j, enough) result(bound)
+  !> turn_i, turn_j [m], when present: how far turning can move any surface point of each body
+  !> over the time the bound must hold for (Omega R h); the bounding spheres do not turn,
+  !> but a body's box turns with it, so its box test gives up that much.
+  pure real(dp) function gap_lower_bound(shapes, bodies, i, j, enough, turn_i, turn_j) result(bound)
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: i, j
     real(dp), intent(in) :: enough   !< a bound above this already settles the question
+    real(dp), intent(in), optional :: turn_i, turn_j
+    real(dp) :: slack_i, slack_j
+    slack_i = 0.0_dp
+    slack_j = 0.0_dp
+    if (present(turn_i)) slack_i = turn_i
+    if (present(turn_j)) slack_j = turn_j
     associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
       bound = norm2(bodies%x(:, j) - bodies%x(:, i)) - si%bounding_radius - sj%bounding_radius
       if (bound > enough) return
       ! the box tests only help where a body is much larger than its partner
       if (si%kind == SHAPE_SPHERE .and. sj%kind == SHAPE_SPHERE) return
       bound = max(bound, point_box_gap(bodies%x(:, i), bodies%x(:, j), bodies%q(:, j), sj%aabb_lower, sj%aabb_upper) &
-                  - si%bounding_radius)
+                  - si%bounding_radius - slack_j)
       bound = max(bound, point_box_gap(bodies%x(:, j), bodies%x(:, i), bodies%q(:, i), si%aabb_lower, si%aabb_upper) &
-                  - sj%bounding_radius)
+                  - sj%bounding_radius - slack_i)
     end associate
   end function gap_lower_bound
 
@@ -100,7 +109,9 @@ contains
   !> a pair with a sphere has one point, in the middle of the gap on the normal; two meshes
   !> have one point per contact feature (vertex-face, face-vertex, edge-edge) within
   !> gap + band. Appends to contacts(1:n_contacts) (grown as needed) and keys.
-  subroutine pair_contact_points(shapes, bodies, i, j, gap, normal, band, contacts, keys, n_contacts, features)
+  !> search [m], when present: features within gap + search instead (speculative contacts of
+  !> features that may touch within a step); points are still merged within band only.
+  subroutine pair_contact_points(shapes, bodies, i, j, gap, normal, band, contacts, keys, n_contacts, features, search)
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: i, j
@@ -109,19 +120,22 @@ contains
     integer(i8), allocatable, intent(inout) :: keys(:, :)
     integer, intent(inout) :: n_contacts
     type(contact_feature_t), allocatable, intent(inout) :: features(:)
+    real(dp), intent(in), optional :: search
     integer :: f, n_features, first, k
-    real(dp) :: p(3)
+    real(dp) :: p(3), within
+    within = band
+    if (present(search)) within = max(band, search)
     associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
       if (si%kind == SHAPE_SPHERE) then
         p = bodies%x(:, i) + (si%radius + 0.5_dp*gap)*normal
-        call push(contact_t(a=i, b=j, point=p, normal=normal), [0_i8, 0_i8, 0_i8, 0_i8, 0_i8])
+        call push(contact_t(a=i, b=j, point=p, normal=normal, gap=gap), [0_i8, 0_i8, 0_i8, 0_i8, 0_i8])
       else if (sj%kind == SHAPE_SPHERE) then
         ! b is the sphere: its surface point towards a, then half the gap back
         p = bodies%x(:, j) - (sj%radius + 0.5_dp*gap)*normal
-        call push(contact_t(a=i, b=j, point=p, normal=normal), [0_i8, 0_i8, 0_i8, 0_i8, 0_i8])
+        call push(contact_t(a=i, b=j, point=p, normal=normal, gap=gap), [0_i8, 0_i8, 0_i8, 0_i8, 0_i8])
       else
         call find_contact_features(si%tree, bodies%x(:, i), bodies%q(:, i), sj%tree, bodies%x(:, j), bodies%q(:, j), &
-                                   gap + band, features, n_features)
+                                   gap + within, features, n_features)
         first = n_contacts + 1
         do f = 1, n_features
           p = 0.5_dp*(features(f)%point_a + features(f)%point_b)
@@ -131,7 +145,7 @@ contains
           if (n_contacts >= first) then
             if (any([(norm2(contacts(k)%point - p) <= band .and. dot_product(contacts(k)%normal, features(f)%normal) > 0.999_dp, k=first, n_contacts)])) cycle
           end if
-          call push(contact_t(a=i, b=j, point=p, normal=features(f)%normal), &
+          call push(contact_t(a=i, b=j, point=p, normal=features(f)%normal, gap=features(f)%distance), &
                     int([features(f)%kind, features(f)%feature_a, features(f)%feature_b], i8))
         end do
       end if

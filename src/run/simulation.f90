@@ -266,6 +266,12 @@ contains
       ! Collisions: no body moves more than one grid box, and the step ends at the earliest
       ! time of contact.
       h = self%collisions%limit_step(self%bodies, self%propagator, self%deck%run%gravity, h)
+      ! The step's candidate pairs and their gaps, shared by the contact pass and the time
+      ! of contact.
+      clock = par%wtime()
+      call self%collisions%prepare(self%bodies, self%shapes, self%propagator, h, self%deck%run%gravity, err)
+      if (err%failed()) return
+      self%detection_wall = self%detection_wall + (par%wtime() - clock)
       ! Resting contacts first: their forces over the step become the bodies' loads, so
       ! bodies at rest keep whole steps (docs/contact.md).
       clock = par%wtime()
