@@ -33,7 +33,7 @@ module collision_stage
   implicit none
   private
   public :: collision_stage_t, collision_stats_t
-  logical, parameter :: debug_events = .true.
+  logical, parameter :: debug_events = .false.
 
   type :: collision_stats_t
     integer(i8) :: events = 0                  !< steps that ended at a contact
@@ -92,6 +92,7 @@ module collision_stage
   contains
     procedure :: init => stage_init
     procedure :: prepare => stage_prepare
+    procedure :: correct_distances => stage_correct_distances
     procedure :: contact_pass => stage_contact_pass
     procedure :: return_unused_pass => stage_return_unused_pass
     procedure :: limit_step => stage_limit_step
@@ -280,6 +281,124 @@ contains
     end do
   end subroutine stage_prepare
 
+  !> Distance correction of the step's candidate pairs (after prepare): pairs that have
+  !> settled below three quarters of the minimum separation (turning bodies in contact come
+  !> down towards the floor, and a contact solve leaves residuals) are opened to the target
+  !> plus half the tolerance by moving bodies, positions only (velocities, and so kinetic
+  !> energy, stay), by the smallest mass-weighted translations that also keep every other
+  !> candidate pair at least as far apart as it was or at that target, whichever is less:
+  !>     min sum_i m_i |d_i|^2   subject to   g_k + n_k.(d_b - d_a) >= min(g_k, aim) for all k,
+  !>                                          g_k + n_k.(d_b - d_a) >= aim for the low pairs,
+  !> solved by projected Gauss-Seidel over the constraint multipliers (a body in a stack pushes
+  !> the ones above it too, instead of being refused as one pair at a time was). For convex
+  !> pairs g + n.(d_b - d_a) is a lower bound on the new gap (the projections on n move apart
+  !> by that much), so the result holds by construction; every pair of a moved body is then
+  !> measured again, and if one still came closer than allowed (a non-convex pair, or
+  !> an unconverged solve) the move is halved, up to four times, or not made.
+  subroutine stage_correct_distances(self, bodies, shapes, flight)
+    class(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    !> Gaps below this fraction of the target are corrected.
+    real(dp), parameter :: trigger = 0.75_dp
+    integer, parameter :: max_sweeps = 200, max_halvings = 4
+    real(dp), allocatable :: lam(:), bound(:), d(:, :), x_saved(:, :), gap_new(:), normal_new(:, :)
+    logical, allocatable :: active(:), moves(:)
+    integer :: n, k, i, j, sweep, halving, n_active
+    real(dp) :: aim, weight, residual, dl, worst, alpha
+    logical :: ok
+    n = bodies%n_owned + bodies%n_ghost
+    if (self%n_pairs == 0) return
+    if (.not. any(.not. self%pair_far(1:self%n_pairs) .and. self%pair_gap0(1:self%n_pairs) < trigger*self%target)) return
+    aim = self%target + 0.5_dp*self%tolerance
+    allocate (lam(self%n_pairs), bound(self%n_pairs), active(self%n_pairs), d(3, n), moves(n))
+    ! The constraints: every near pair with a moving body.
+    lam = 0.0_dp
+    do k = 1, self%n_pairs
+      i = self%pairs(1, k)
+      j = self%pairs(2, k)
+      active(k) = .not. self%pair_far(k) .and. .not. (bodies%fixed(i) .and. bodies%fixed(j))
+      if (.not. active(k)) cycle
+      bound(k) = min(self%pair_gap0(k), aim)
+      if (self%pair_gap0(k) < trigger*self%target) bound(k) = aim
+    end do
+    n_active = count(active)
+    d = 0.0_dp
+    do sweep = 1, max_sweeps
+      worst = 0.0_dp
+      do k = 1, self%n_pairs
+        if (.not. active(k)) cycle
+        i = self%pairs(1, k)
+        j = self%pairs(2, k)
+        weight = bodies%inv_mass(i) + bodies%inv_mass(j)
+        if (weight <= 0.0_dp) cycle
+        residual = self%pair_gap0(k) + dot_product(self%pair_normal(:, k), d(:, j) - d(:, i)) - bound(k)
+        dl = max(-residual/weight, -lam(k))
+        if (dl == 0.0_dp) cycle
+        lam(k) = lam(k) + dl
+        d(:, j) = d(:, j) + bodies%inv_mass(j)*dl*self%pair_normal(:, k)
+        d(:, i) = d(:, i) - bodies%inv_mass(i)*dl*self%pair_normal(:, k)
+        worst = max(worst, abs(residual))
+      end do
+      if (worst <= 1.0e-3_dp*self%target) exit
+    end do
+    do i = 1, n
+      moves(i) = any(d(:, i) /= 0.0_dp) .and. .not. bodies%fixed(i)
+    end do
+    if (.not. any(moves)) return
+    x_saved = bodies%x(:, 1:n)
+    allocate (gap_new(self%n_pairs), normal_new(3, self%n_pairs))
+    alpha = 1.0_dp
+    do halving = 0, max_halvings
+      do i = 1, n
+        if (moves(i)) bodies%x(:, i) = x_saved(:, i) + alpha*d(:, i)
+      end do
+      ! Measure every pair of a moved body: none may end closer than its bound allows
+      ! (the low ones at least no closer than they were).
+      ok = .true.
+      do k = 1, self%n_pairs
+        if (.not. active(k)) cycle
+        i = self%pairs(1, k)
+        j = self%pairs(2, k)
+        if (.not. (moves(i) .or. moves(j))) cycle
+        call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                      gap_new(k), normal_new(:, k))
+        self%stats%pair_tests = self%stats%pair_tests + 1
+        if (gap_new(k) < min(self%pair_gap0(k), bound(k)) - 1.0e-3_dp*self%target) then
+          ok = .false.
+          exit
+        end if
+      end do
+      if (ok) exit
+      alpha = 0.5_dp*alpha
+    end do
+    if (.not. ok) then
+      bodies%x(:, 1:n) = x_saved
+      return
+    end if
+    do k = 1, self%n_pairs
+      i = self%pairs(1, k)
+      j = self%pairs(2, k)
+      if (.not. (moves(i) .or. moves(j))) cycle
+      if (active(k)) then
+        self%pair_gap0(k) = gap_new(k)
+        self%pair_normal(:, k) = normal_new(:, k)
+      else if (self%pair_far(k) .and. .not. (bodies%fixed(i) .and. bodies%fixed(j))) then
+        ! a far pair of a moved body is far no more: measured, to keep prepare's promise
+        self%pair_far(k) = .false.
+        call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                      self%pair_gap0(k), self%pair_normal(:, k))
+        self%stats%pair_tests = self%stats%pair_tests + 1
+      end if
+      self%stats%min_separation = min(self%stats%min_separation, self%pair_gap0(k))
+    end do
+    do i = 1, n
+      if (moves(i)) call flight%release(i)
+    end do
+    self%stats%corrections = self%stats%corrections + count(moves)
+  end subroutine stage_correct_distances
+
   !> Earliest time of contact in [0, h] over all candidate pairs: h_event <= h. The pairs
   !> that reach contact at h_event are kept for resolve.
   subroutine stage_earliest_contact(self, bodies, shapes, flight, time_now, h, gravity, config, h_event, err)
@@ -297,8 +416,8 @@ contains
     type(advancement_result_t) :: res
     real(dp) :: gap0, normal0(3), safe, floor
     real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
-    logical, allocatable :: receding(:), far(:), moved(:)
-    logical :: hovering
+    logical, allocatable :: receding(:), far(:), moved(:), pair_touches(:)
+    logical :: hovering, solved
     integer :: n, i, j, k
 
     n = bodies%n_owned + bodies%n_ghost
@@ -331,7 +450,8 @@ contains
     oracle%config = config
     oracle%time_now = time_now
     oracle%gravity = gravity
-    allocate (pair_time(self%n_pairs), moved(n))
+    allocate (pair_time(self%n_pairs), pair_touches(self%n_pairs), moved(n))
+    pair_touches = .false.
     if (debug_events) allocate (dbg_info(8, self%n_pairs))
     pair_time = huge(1.0_dp)
     moved = .false.
@@ -351,6 +471,9 @@ contains
       j = self%pairs(2, k)
       if (far(k)) cycle
       if (pair_gap0(k) > self%target + self%tolerance) cycle
+      ! (inelastic pairs the contact pass solved are bounded as they are, down to the floor)
+      if (self%pair_in_pass(k) .and. pair_gap0(k) > 0.5_dp*self%target + self%tolerance .and. &
+          self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j)) <= 0.0_dp) cycle
       gap0 = pair_gap0(k)
       normal0 = pair_normal(:, k)
       motion = pair_motion(shapes, bodies, flight, i, j, gravity)
@@ -390,17 +513,22 @@ contains
       ! steps; such a contact is a resting one, not an impact whose timing matters.
       safe = 0.0_dp
       hovering = .false.
-      if (self%pair_in_pass(k) .and. gap0 > self%target + self%tolerance) then
-        ! The contact pass solved this pair before it touched (speculative, or just above
-        ! the band): it may come down into the band within the step, to the settling floor;
-        ! only an approach below floor + tolerance is an event.
+      solved = self%pair_in_pass(k) .and. gap0 > 0.5_dp*self%target + self%tolerance
+      if (solved) solved = self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j)) <= 0.0_dp
+      if (solved) then
+        ! An inelastic pair the contact pass solved (in the band, or speculative: not yet
+        ! touching): its contact points may approach only as fast as closes them to the band
+        ! in the step, and whatever the solve left is bounded here. It may come down to the
+        ! settling floor; only there is it an event. Turning pairs: the second-order bound,
+        ! re-tested along the step (extend_receding), with the first-order bound crawl-limited.
         if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
           safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target + self%tolerance, &
                                  h_event)
           if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
         end if
         call advance_pair(oracle, motion, gap0, normal0, h_event, 0.5_dp*self%target, self%tolerance, &
-                          0.5_dp*self%target, self%velocity_tolerance, self%max_iterations, res, safe_time=safe)
+                          0.5_dp*self%target, self%velocity_tolerance, self%max_iterations, res, safe_time=safe, &
+                          hovering=.true.)
       else
       if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
         if (gap0 > self%target + self%tolerance) then
@@ -419,14 +547,19 @@ contains
       end if
       self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
       self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
-      if (receding(k) .and. res%contact .and. res%time > 0.0_dp .and. res%time < h_event .and. flight%exact) &
-        call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_event, res)
+      if ((receding(k) .or. solved) .and. (res%contact .or. res%capped) .and. res%time > 0.0_dp .and. &
+          res%time < h_event .and. flight%exact) then
+        call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_event, res, solved)
+      end if
       if (res%capped) self%stats%capped = self%stats%capped + 1
       if (res%contact .or. res%capped) then
         if (debug_events) dbg_info(:, k) = [merge(1.0_dp, 0.0_dp, self%pair_in_pass(k)), &
           merge(1.0_dp, 0.0_dp, receding(k)), merge(1.0_dp, 0.0_dp, res%capped), merge(1.0_dp, 0.0_dp, hovering), &
           gap0, res%time, motion%omega_r_a + motion%omega_r_b, real(res%iterations, dp)]
         pair_time(k) = res%time
+        ! A capped pair only shortens the step (it is still above its floor): nothing to
+        ! resolve there, unless it cannot advance at all (the stall guard counts those).
+        pair_touches(k) = res%contact .or. res%time == 0.0_dp
         if (res%time == 0.0_dp) then
           self%stalled_pair = [bodies%gid(i), bodies%gid(j)]
         end if
@@ -435,12 +568,12 @@ contains
       end if
     end do
     ! The pairs that reach contact at the chosen time (capped ones only shorten the step).
-    self%n_events = count(pair_time <= h_event)
+    self%n_events = count(pair_time <= h_event .and. pair_touches)
     if (allocated(self%event_pairs)) deallocate (self%event_pairs)
     allocate (self%event_pairs(2, self%n_events))
     self%n_events = 0
     do k = 1, self%n_pairs
-      if (pair_time(k) <= h_event) then
+      if (pair_time(k) <= h_event .and. pair_touches(k)) then
         if (debug_events) write (*, '(a,2i5,4f3.0,3es11.3,f5.0,es11.3)') 'DBG cut', self%pairs(:, k), dbg_info(:, k), h
         self%n_events = self%n_events + 1
         self%event_pairs(:, self%n_events) = self%pairs(:, k)
@@ -457,7 +590,10 @@ contains
   !> the gap measured, the contact points still receding, a new safe time down to the same
   !> floor. At most max_extensions times; the pair stops where a test fails (as before,
   !> an event there). Nothing is assumed beyond what the first test checked at t = 0.
-  subroutine extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_limit, res)
+  !> solved: the pair was solved by the contact pass (an inelastic pair): it may come down
+  !> to the floor from anywhere, at any speed the bound allows, so neither leaving the band
+  !> nor an approach ends the re-tests; only the floor does.
+  subroutine extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_limit, res, solved)
     type(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
     type(shape_library_t), intent(in) :: shapes
@@ -466,10 +602,14 @@ contains
     type(integrator_config_t), intent(in) :: config
     integer, intent(in) :: i, j
     type(advancement_result_t), intent(inout) :: res
+    logical, intent(in), optional :: solved
     integer, parameter :: max_extensions = 8
+    logical :: floor_only
     real(dp) :: saved_x(3, 2), saved_q(4, 2), saved_v(3, 2), saved_w(3, 2), t, gap, normal(3), safe
     real(dp) :: x_t(3), q_t(4), w_t(3)
     integer :: extension, pair(2), b
+    floor_only = .false.
+    if (present(solved)) floor_only = solved
     pair = [i, j]
     do b = 1, 2
       saved_x(:, b) = bodies%x(:, pair(b))
@@ -492,11 +632,14 @@ contains
       call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
       self%stats%pair_tests = self%stats%pair_tests + 1
       self%stats%min_separation = min(self%stats%min_separation, gap)
-      if (gap > self%target + self%tolerance .or. gap <= 0.5_dp*self%target + self%tolerance) exit
-      ! Contact points closing slower than the rest speed (rolling brings them down at second
-      ! order) may settle towards the floor, as at the step's start: the plane bound holds for
-      ! any motion, so it bounds them. Faster ones are impacts: the step ends for them.
-      if (approaching(self, bodies, shapes, i, j, gap, normal, self%rest_speed)) exit
+      if (gap <= 0.5_dp*self%target + self%tolerance) exit
+      if (.not. floor_only) then
+        if (gap > self%target + self%tolerance) exit
+        ! Contact points closing slower than the rest speed (rolling brings them down at second
+        ! order) may settle towards the floor, as at the step's start: the plane bound holds for
+        ! any motion, so it bounds them. Faster ones are impacts: the step ends for them.
+        if (approaching(self, bodies, shapes, i, j, gap, normal, self%rest_speed)) exit
+      end if
       safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal, 0.5_dp*self%target, h_limit - t)
       if (safe <= 0.0_dp) exit
       self%stats%plane_skips = self%stats%plane_skips + 1
@@ -511,9 +654,16 @@ contains
     end do
     if (t >= h_limit) then
       res%contact = .false.
+      res%capped = .false.
       res%time = h_limit
     else
       res%time = t
+      ! a solved pair stops at the floor (an event), or where the bound could not go on
+      ! while it was still above the floor (a shorter step, nothing to resolve)
+      if (floor_only) then
+        res%contact = gap <= 0.5_dp*self%target + self%tolerance
+        res%capped = .not. res%contact
+      end if
     end if
   end subroutine extend_receding
 
@@ -814,7 +964,7 @@ contains
     integer, allocatable :: grown(:)
     n_contacts = 0
     band = self%target + self%tolerance + self%contact_tolerance
-    aim = self%target + 0.5_dp*self%tolerance
+    aim = self%target + self%tolerance
     do k = 1, self%n_pairs
       if (self%pair_far(k)) cycle
       i = self%pairs(1, k)
@@ -840,10 +990,13 @@ contains
       end if
       self%contacts(first:n_contacts)%restitution = restitution
       self%contacts(first:n_contacts)%friction = self%materials%pair_friction(bodies%group_id(i), bodies%group_id(j))
-      do c = first, n_contacts
-        self%contacts(c)%allowed_approach = 0.0_dp
-        if (self%contacts(c)%gap > band) self%contacts(c)%allowed_approach = (self%contacts(c)%gap - aim)/h
-      end do
+      ! inelastic pairs: every contact point may close to the band (target + tolerance) in the
+      ! step and no further; elastic ones (slow, in the band) may not approach at all
+      if (restitution <= 0.0_dp) then
+        do c = first, n_contacts
+          self%contacts(c)%allowed_approach = max(self%contacts(c)%gap - aim, 0.0_dp)/h
+        end do
+      end if
       if (.not. allocated(self%contact_pair)) allocate (self%contact_pair(max(64, size(self%contacts))))
       if (size(self%contact_pair) < n_contacts) then
         allocate (grown(2*n_contacts))
@@ -878,6 +1031,21 @@ contains
     end do
     call self%sleep%wake_touching(bodies, flight, pack(self%contacts(1:n_contacts), reached), woke)
   end subroutine wake_reached
+
+  !> An impact inside a group of contacts too large for the exact solve: inelastic, with
+  !> Coulomb friction, by projected Gauss-Seidel from zero impulses (dissipative, and every
+  !> contact left approaching is caught by remove_residual_approach and, past that, by the
+  !> next time of contact).
+  subroutine solve_large_groups(self, bodies, contacts)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(contact_t), intent(in) :: contacts(:)
+    real(dp), allocatable :: impulse(:, :)
+    allocate (impulse(3, size(contacts)))
+    impulse = 0.0_dp
+    call solve_contacts_pgs(bodies, contacts, impulse, self%resting%tolerance, self%resting%max_sweeps, &
+                            self%impact_friction)
+  end subroutine solve_large_groups
 
   !> Safety net after the impulse solvers: the exact projection can stop at its iteration cap
   !> on rank-deficient groups (many contact points on few bodies), leaving contacts that
@@ -939,6 +1107,7 @@ contains
     type(error_t), intent(inout) :: err
     integer :: i, c, n_contacts
     real(dp), allocatable :: v_old(:, :), w_old(:, :), normal_impulse(:), friction_impulse(:, :)
+    logical, allocatable :: large(:)
     logical :: woke
 
     if (self%n_events == 0) return
@@ -966,10 +1135,14 @@ contains
     end do
     v_old = bodies%v
     w_old = bodies%w
-    allocate (normal_impulse(n_contacts))
+    allocate (normal_impulse(n_contacts), large(n_contacts))
     call resolve_impacts(bodies, self%contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, &
-                         self%impulses, err, normal_impulse)
+                         self%impulses, err, normal_impulse, self%resting%projection_limit, large)
     if (err%failed()) return
+    ! Groups too large for the exact solve (a pile in contact): inelastic, with friction, by
+    ! projected Gauss-Seidel; their normal impulses are left out of the friction step below,
+    ! which this solve has done for them.
+    if (any(large)) call solve_large_groups(self, bodies, pack(self%contacts(1:n_contacts), large))
     if (any(self%contacts(1:n_contacts)%friction > 0.0_dp) .and. any(normal_impulse > 0.0_dp)) then
       allocate (friction_impulse(3, n_contacts))
       friction_impulse = 0.0_dp
@@ -978,8 +1151,9 @@ contains
       if (any([(normal_velocity(bodies, self%contacts(c)) < -self%velocity_tolerance, c=1, n_contacts)])) then
         self%contacts(1:n_contacts)%restitution = 0.0_dp
         call resolve_impacts(bodies, self%contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, &
-                             self%impulses, err)
+                             self%impulses, err, max_group=self%resting%projection_limit, large=large)
         if (err%failed()) return
+        if (any(large)) call solve_large_groups(self, bodies, pack(self%contacts(1:n_contacts), large))
       end if
     end if
     call remove_residual_approach(self, bodies, self%contacts(1:n_contacts))
@@ -989,10 +1163,6 @@ contains
           self%contacts(c)%a, self%contacts(c)%b, normal_velocity(bodies, self%contacts(c)), self%contacts(c)%gap
       end do
       write (*, *) 'DBG resolve n_contacts', n_contacts
-      do c = 1, n_contacts
-        if (self%contacts(c)%a == 21 .and. self%contacts(c)%b == 25) write (*, '(a,2es12.4,5i4)') 'DBG res 21-25', &
-          normal_velocity(bodies, self%contacts(c)), self%contacts(c)%gap, self%keys(3:7, c)
-      end do
     end if
     do i = 1, bodies%n_owned
       if (any(v_old(:, i) /= bodies%v(:, i)) .or. any(w_old(:, i) /= bodies%w(:, i))) call flight%release(i)

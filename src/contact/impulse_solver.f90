@@ -78,7 +78,11 @@ contains
   !> velocity_tolerance [m/s]: approach speeds below it count as resting (no reflection);
   !> max_rounds caps the generalized-reflection loop (then the group is made inelastic).
   !> normal_impulse(i), when present: the normal impulse applied at contact i [N s].
-  subroutine resolve_impacts(bodies, contacts, velocity_tolerance, max_rounds, stats, err, normal_impulse)
+  !> max_group, when present: groups of more contacts are not solved here (the dense exact
+  !> solve grows as the cube of a group's size); large(i) marks their contacts, for an
+  !> iterative solver of the caller's.
+  subroutine resolve_impacts(bodies, contacts, velocity_tolerance, max_rounds, stats, err, normal_impulse, &
+                             max_group, large)
     type(bodies_t), intent(inout) :: bodies
     type(contact_t), intent(in) :: contacts(:)
     real(dp), intent(in) :: velocity_tolerance
@@ -86,6 +90,8 @@ contains
     type(impulse_stats_t), intent(inout) :: stats
     type(error_t), intent(inout) :: err
     real(dp), intent(out), optional :: normal_impulse(:)
+    integer, intent(in), optional :: max_group
+    logical, intent(out), optional :: large(:)
     real(dp), allocatable :: group_impulse(:)
     integer, allocatable :: in_group(:)
     integer, allocatable :: parent(:), group_of_contact(:)
@@ -109,6 +115,7 @@ contains
     end do
     done = .false.
     if (present(normal_impulse)) normal_impulse = 0.0_dp
+    if (present(large)) large = .false.
     do i = 1, size(contacts)
       if (done(i)) cycle
       root = group_of_contact(i)
@@ -117,11 +124,24 @@ contains
         cycle
       end if
       in_group = pack([(g, g=1, size(contacts))], group_of_contact == root)
-      allocate (group_impulse(size(in_group)))
-      call solve_group(bodies, contacts(in_group), velocity_tolerance, max_rounds, stats, group_impulse, err)
-      if (err%failed()) return
-      if (present(normal_impulse)) normal_impulse(in_group) = group_impulse
-      deallocate (group_impulse)
+      if (present(max_group) .and. present(large)) then
+        if (size(in_group) > max_group) then
+          large(in_group) = .true.
+          done(in_group) = .true.
+          cycle
+        end if
+      end if
+      ! A group none of whose contacts approaches (faster than it may) needs no impulse: the
+      ! projection of a velocity already in the cone is itself (one pile touched by one
+      ! impact must not pay for the solve of all its resting groups).
+      if (any([(normal_velocity(bodies, contacts(in_group(g))) < &
+                -contacts(in_group(g))%allowed_approach - velocity_tolerance, g=1, size(in_group))])) then
+        allocate (group_impulse(size(in_group)))
+        call solve_group(bodies, contacts(in_group), velocity_tolerance, max_rounds, stats, group_impulse, err)
+        if (err%failed()) return
+        if (present(normal_impulse)) normal_impulse(in_group) = group_impulse
+        deallocate (group_impulse)
+      end if
       do g = i, size(contacts)
         if (group_of_contact(g) == root) done(g) = .true.
       end do

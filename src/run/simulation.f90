@@ -271,6 +271,7 @@ contains
       clock = par%wtime()
       call self%collisions%prepare(self%bodies, self%shapes, self%propagator, h, self%deck%run%gravity, err)
       if (err%failed()) return
+      call self%collisions%correct_distances(self%bodies, self%shapes, self%propagator)
       self%detection_wall = self%detection_wall + (par%wtime() - clock)
       ! Resting contacts first: their forces over the step become the bodies' loads, so
       ! bodies at rest keep whole steps (docs/contact.md).
