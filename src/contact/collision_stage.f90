@@ -33,7 +33,6 @@ module collision_stage
   implicit none
   private
   public :: collision_stage_t, collision_stats_t
-  logical, parameter :: debug_events = .false.
 
   type :: collision_stats_t
     integer(i8) :: events = 0                  !< steps that ended at a contact
@@ -410,13 +409,13 @@ contains
     type(integrator_config_t), intent(in) :: config
     real(dp), intent(out) :: h_event
     type(error_t), intent(inout) :: err
-    real(dp), allocatable :: margin(:), dbg_info(:, :)
+    real(dp), allocatable :: margin(:)
     type(pair_oracle_t) :: oracle
     type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
     real(dp) :: gap0, normal0(3), safe, floor
     real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
-    logical, allocatable :: receding(:), far(:), moved(:), pair_touches(:)
+    logical, allocatable :: receding(:), far(:), pair_touches(:)
     logical :: hovering, solved
     integer :: n, i, j, k
 
@@ -450,20 +449,17 @@ contains
     oracle%config = config
     oracle%time_now = time_now
     oracle%gravity = gravity
-    allocate (pair_time(self%n_pairs), pair_touches(self%n_pairs), moved(n))
+    allocate (pair_time(self%n_pairs), pair_touches(self%n_pairs))
     pair_touches = .false.
-    if (debug_events) allocate (dbg_info(8, self%n_pairs))
     pair_time = huge(1.0_dp)
-    moved = .false.
-    ! Gaps at the step's start (prepare): the distance correction below needs the neighbours'.
+    ! Gaps at the step's start (prepare, after the distance correction).
     pair_gap0 = self%pair_gap0(1:self%n_pairs)
     pair_normal = self%pair_normal(:, 1:self%n_pairs)
     far = self%pair_far(1:self%n_pairs)
     ! In the contact band, measure whether any contact point really approaches: the bound's
     ! turning term (Omega r) says "may approach" for every spinning pair in contact.
-    ! Receding pairs settle towards the floor instead of stopping the run. A receding pair
-    ! already at the floor is opened by the distance correction (it moves bodies, so it
-    ! runs before any time of contact is computed).
+    ! Receding pairs settle towards the floor instead of stopping the run (pairs already
+    ! near the floor were opened by correct_distances at the step's start).
     allocate (receding(self%n_pairs))
     receding = .false.
     do k = 1, self%n_pairs
@@ -478,29 +474,15 @@ contains
       normal0 = pair_normal(:, k)
       motion = pair_motion(shapes, bodies, flight, i, j, gravity)
       if (band_rate(motion, normal0) <= self%velocity_tolerance) cycle
-      if (approaching(self, bodies, shapes, i, j, gap0, normal0)) then
-        if (debug_events) call debug_pair(self, bodies, shapes, i, j, gap0, normal0)
-        cycle
-      end if
+      if (approaching(self, bodies, shapes, i, j, gap0, normal0)) cycle
       receding(k) = .true.
-      if (gap0 <= 0.5_dp*self%target + self%tolerance) then
-        if (separate_pair(self, bodies, shapes, flight, k, pair_gap0)) then
-          moved(i) = .true.
-          moved(j) = .true.
-        end if
-      end if
     end do
     do k = 1, self%n_pairs
       i = self%pairs(1, k)
       j = self%pairs(2, k)
       if (far(k)) cycle
-      if (moved(i) .or. moved(j)) then
-        call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
-                      gap0, normal0)
-      else
-        gap0 = pair_gap0(k)
-        normal0 = pair_normal(:, k)
-      end if
+      gap0 = pair_gap0(k)
+      normal0 = pair_normal(:, k)
       motion = pair_motion(shapes, bodies, flight, i, j, gravity)
       oracle%i = i
       oracle%j = j
@@ -553,9 +535,6 @@ contains
       end if
       if (res%capped) self%stats%capped = self%stats%capped + 1
       if (res%contact .or. res%capped) then
-        if (debug_events) dbg_info(:, k) = [merge(1.0_dp, 0.0_dp, self%pair_in_pass(k)), &
-          merge(1.0_dp, 0.0_dp, receding(k)), merge(1.0_dp, 0.0_dp, res%capped), merge(1.0_dp, 0.0_dp, hovering), &
-          gap0, res%time, motion%omega_r_a + motion%omega_r_b, real(res%iterations, dp)]
         pair_time(k) = res%time
         ! A capped pair only shortens the step (it is still above its floor): nothing to
         ! resolve there, unless it cannot advance at all (the stall guard counts those).
@@ -574,7 +553,6 @@ contains
     self%n_events = 0
     do k = 1, self%n_pairs
       if (pair_time(k) <= h_event .and. pair_touches(k)) then
-        if (debug_events) write (*, '(a,2i5,4f3.0,3es11.3,f5.0,es11.3)') 'DBG cut', self%pairs(:, k), dbg_info(:, k), h
         self%n_events = self%n_events + 1
         self%event_pairs(:, self%n_events) = self%pairs(:, k)
       end if
@@ -707,89 +685,6 @@ contains
     end do
   end function approaching
 
-  subroutine debug_pair(self, bodies, shapes, i, j, gap, normal)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(in) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    integer, intent(in) :: i, j
-    real(dp), intent(in) :: gap, normal(3)
-    type(contact_t), allocatable :: points(:)
-    integer(i8), allocatable :: keys(:, :)
-    integer :: c, n_points, l
-    n_points = 0
-    call pair_contact_points(shapes, bodies, i, j, gap, normal, self%contact_tolerance, points, keys, n_points, &
-                             self%features)
-    do c = 1, n_points
-      write (*, '(a,2i4,3es12.4,a,7i4)') 'DBG appr', i, j, normal_velocity(bodies, points(c)), points(c)%gap, gap, ' key ', keys(3:7, c)
-    end do
-    do l = 1, size(self%contacts)
-      if (self%contacts(l)%a == i .and. self%contacts(l)%b == j) write (*, '(a,3es12.4,a,7i4)') 'DBG pass', &
-        normal_velocity(bodies, self%contacts(l)), self%contacts(l)%gap, self%contacts(l)%allowed_approach, ' key ', self%keys(3:7, l)
-    end do
-  end subroutine debug_pair
-
-  !> Distance correction (a receding pair that has settled to the floor, where the bound
-  !> would allow no further step): moves the pair apart along its normal towards a gap of
-  !> two minimum separations, split by inverse mass (a fixed body does not move), positions
-  !> only (velocities stay: no energy is injected). A moving body is pushed no further than
-  !> its other neighbours allow: each of their gaps must stay above the settling floor plus
-  !> the tolerance (a correction never pushes a third body into contact, nor to the floor).
-  !> In a dense pile the push is then partial; it is refused when it would not open the
-  !> pair by at least a quarter of the minimum separation.
-  logical function separate_pair(self, bodies, shapes, flight, k, gaps) result(done)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    type(free_flight_t), intent(inout) :: flight
-    integer, intent(in) :: k
-    real(dp), intent(inout) :: gaps(:)
-    real(dp) :: gap, normal(3), push, share_i, share_j, w_i, w_j, room_i, room_j, floor, scale
-    integer :: i, j, l
-    i = self%pairs(1, k)
-    j = self%pairs(2, k)
-    done = .false.
-    call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
-    push = 2.0_dp*self%target - gap
-    if (push <= 0.0_dp) return
-    w_i = bodies%inv_mass(i)
-    w_j = bodies%inv_mass(j)
-    if (w_i + w_j <= 0.0_dp) return
-    share_i = push*w_i/(w_i + w_j)
-    share_j = push*w_j/(w_i + w_j)
-    ! Room: how far each body may move before a gap to another neighbour reaches the floor
-    ! plus the tolerance (a translation by s changes any of its gaps by at most s).
-    floor = 0.5_dp*self%target + self%tolerance
-    room_i = huge(1.0_dp)
-    room_j = huge(1.0_dp)
-    do l = 1, self%n_pairs
-      if (l == k) cycle
-      if (any(self%pairs(:, l) == i)) room_i = min(room_i, gaps(l) - floor)
-      if (any(self%pairs(:, l) == j)) room_j = min(room_j, gaps(l) - floor)
-    end do
-    scale = 1.0_dp
-    if (share_i > 0.0_dp) scale = min(scale, max(room_i, 0.0_dp)/share_i)
-    if (share_j > 0.0_dp) scale = min(scale, max(room_j, 0.0_dp)/share_j)
-    if (scale*push < 0.25_dp*self%target) return
-    share_i = scale*share_i
-    share_j = scale*share_j
-    bodies%x(:, i) = bodies%x(:, i) - share_i*normal
-    bodies%x(:, j) = bodies%x(:, j) + share_j*normal
-    call flight%release(i)
-    call flight%release(j)
-    ! neighbours' gaps may have shrunk by the push: keep the bookkeeping conservative
-    do l = 1, self%n_pairs
-      if (l == k) cycle
-      if (any(self%pairs(:, l) == i)) gaps(l) = gaps(l) - share_i
-      if (any(self%pairs(:, l) == j)) gaps(l) = gaps(l) - share_j
-    end do
-    ! (convex pairs open by exactly the push; others by at least zero)
-    gaps(k) = gap
-    if (shapes%shapes(bodies%shape_id(i))%convex .and. shapes%shapes(bodies%shape_id(j))%convex) &
-      gaps(k) = gap + share_i + share_j
-    self%stats%corrections = self%stats%corrections + 1
-    done = .true.
-  end function separate_pair
-
   !> Contact points of every candidate pair within the contact band, gathered into
   !> self%contacts(1:n_contacts) with their keys (restitution and friction of the pair).
   subroutine gather_contacts(self, bodies, shapes, n_contacts)
@@ -898,12 +793,6 @@ contains
         if (.not. grew) exit
       end do
       kept = count(persistent)
-      if (debug_events) then
-        do c = 1, n_contacts
-          if (persistent(c)) write (*, '(a,2i4,4es12.4,3f8.4,4i5,3f9.4)') 'DBG kept', self%contacts(c)%a, self%contacts(c)%b, &
-            self%contacts(c)%gap, self%contacts(c)%allowed_approach, u_start(c), real(self%keys(3,c)), self%contacts(c)%normal, self%keys(4:7,c), self%contacts(c)%point
-        end do
-      end if
       do c = 1, n_contacts
         if (persistent(c)) self%pair_in_pass(self%contact_pair(c)) = .true.
       end do
@@ -1157,13 +1046,6 @@ contains
       end if
     end if
     call remove_residual_approach(self, bodies, self%contacts(1:n_contacts))
-    if (debug_events) then
-      do c = 1, n_contacts
-        if (normal_velocity(bodies, self%contacts(c)) < -1.0e-3_dp) write (*, '(a,2i4,3es12.4)') 'DBG after resolve', &
-          self%contacts(c)%a, self%contacts(c)%b, normal_velocity(bodies, self%contacts(c)), self%contacts(c)%gap
-      end do
-      write (*, *) 'DBG resolve n_contacts', n_contacts
-    end if
     do i = 1, bodies%n_owned
       if (any(v_old(:, i) /= bodies%v(:, i)) .or. any(w_old(:, i) /= bodies%w(:, i))) call flight%release(i)
     end do

@@ -77,8 +77,8 @@ contains
     logical, intent(in), optional :: warm_applied
     logical :: apply_warm
     real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), lam(:, :), v_prev(:, :), w_prev(:, :), reach(:)
-    real(dp), allocatable :: turn_a(:, :, :), turn_b(:, :, :)
-    integer, allocatable :: members(:)
+    real(dp), allocatable :: turn_a(:, :, :), turn_b(:, :, :), arm_a(:, :), arm_b(:, :)
+    integer, allocatable :: members(:), slot(:)
     integer :: n_members, b
     real(dp) :: k(3, 3), u(3), un, ut(2), dl(3), new_t(2), limit, change, p(3)
     integer :: m, c, sweep
@@ -90,8 +90,11 @@ contains
     tangential_only = present(fixed_normal)
     apply_warm = .true.
     if (present(warm_applied)) apply_warm = .not. warm_applied
-    allocate (basis(3, 3, m), k_nn(m), k_tt(2, 2, m), lam(3, m), turn_a(3, 3, m), turn_b(3, 3, m))
+    allocate (basis(3, 3, m), k_nn(m), k_tt(2, 2, m), lam(3, m), turn_a(3, 3, m), turn_b(3, 3, m), arm_a(3, m), &
+              arm_b(3, m))
     do c = 1, m
+      arm_a(:, c) = contacts(c)%point - bodies%x(:, contacts(c)%a)
+      arm_b(:, c) = contacts(c)%point - bodies%x(:, contacts(c)%b)
       basis(:, 1, c) = contacts(c)%normal
       call tangent_basis(contacts(c)%normal, basis(:, 2, c), basis(:, 3, c))
       ! Angular velocity change of each body per unit impulse along each basis direction
@@ -119,15 +122,19 @@ contains
     ! The bodies of the group (moving ones), whose velocity changes per sweep end the loop:
     ! with more contact points than the impulses need (four corners of a face), impulses
     ! can drift between points while the velocities have long converged.
-    allocate (members(2*m))
+    allocate (members(2*m), slot(size(bodies%fixed)))
+    slot = 0
     n_members = 0
     do c = 1, m
       call enlist(contacts(c)%a)
       call enlist(contacts(c)%b)
     end do
+    ! reach: the farthest contact point of a body's contacts from its centre
     allocate (v_prev(3, n_members), w_prev(3, n_members), reach(n_members))
-    do b = 1, n_members
-      reach(b) = maxval([(norm2(contacts(c)%point - bodies%x(:, members(b))), c=1, m)])
+    reach = 0.0_dp
+    do c = 1, m
+      if (slot(contacts(c)%a) > 0) reach(slot(contacts(c)%a)) = max(reach(slot(contacts(c)%a)), norm2(arm_a(:, c)))
+      if (slot(contacts(c)%b) > 0) reach(slot(contacts(c)%b)) = max(reach(slot(contacts(c)%b)), norm2(arm_b(:, c)))
     end do
     do sweep = 1, max_sweeps
       change = 0.0_dp
@@ -137,17 +144,19 @@ contains
       end do
       do c = 1, m
         dl = 0.0_dp
+        u = contact_velocity(c)
         if (.not. tangential_only) then
-          u = relative_velocity(bodies, contacts(c))
           un = dot_product(basis(:, 1, c), u)
           ! (a speculative contact may approach at up to its allowed speed)
           dl(1) = max(lam(1, c) - (un + contacts(c)%allowed_approach)/k_nn(c), 0.0_dp) - lam(1, c)
-          if (dl(1) /= 0.0_dp) call apply_local(c, [dl(1), 0.0_dp, 0.0_dp])
+          if (dl(1) /= 0.0_dp) then
+            call apply_local(c, [dl(1), 0.0_dp, 0.0_dp])
+            u = contact_velocity(c)
+          end if
           lam(1, c) = lam(1, c) + dl(1)
         end if
         if (contacts(c)%friction > 0.0_dp) then
-          u = relative_velocity(bodies, contacts(c))
-          ut = matmul(transpose(basis(:, 2:3, c)), u)
+          ut = [dot_product(basis(:, 2, c), u), dot_product(basis(:, 3, c), u)]
           limit = contacts(c)%friction*lam(1, c)
           new_t = friction_update(k_tt(:, :, c), lam(2:3, c), ut, limit)
           dl(2:3) = new_t - lam(2:3, c)
@@ -203,10 +212,20 @@ contains
     subroutine enlist(i)
       integer, intent(in) :: i
       if (bodies%fixed(i)) return
-      if (any(members(1:n_members) == i)) return
+      if (slot(i) > 0) return
       n_members = n_members + 1
       members(n_members) = i
+      slot(i) = n_members
     end subroutine enlist
+
+    !> Velocity of b minus velocity of a at contact cc's point [m/s] (arms fixed in the solve).
+    pure function contact_velocity(cc) result(uu)
+      integer, intent(in) :: cc
+      real(dp) :: uu(3)
+      associate (a => contacts(cc)%a, b => contacts(cc)%b)
+        uu = bodies%v(:, b) + cross(bodies%w(:, b), arm_b(:, cc)) - bodies%v(:, a) - cross(bodies%w(:, a), arm_a(:, cc))
+      end associate
+    end function contact_velocity
 
   end subroutine solve_contacts_pgs
 
@@ -265,15 +284,6 @@ contains
     x(1) = (a(2, 2)*b(1) - a(1, 2)*b(2))/det
     x(2) = (a(1, 1)*b(2) - a(2, 1)*b(1))/det
   end function solve2
-
-  !> Velocity of b minus velocity of a at the contact point [m/s].
-  pure function relative_velocity(bodies, c) result(u)
-    type(bodies_t), intent(in) :: bodies
-    type(contact_t), intent(in) :: c
-    real(dp) :: u(3)
-    u = bodies%v(:, c%b) + cross(bodies%w(:, c%b), c%point - bodies%x(:, c%b)) &
-        - bodies%v(:, c%a) - cross(bodies%w(:, c%a), c%point - bodies%x(:, c%a))
-  end function relative_velocity
 
   !> The impulse p acts on b, -p on a (fixed bodies have zero inverse mass and inertia).
   pure subroutine apply(bodies, c, p)

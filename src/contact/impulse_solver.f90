@@ -25,7 +25,8 @@ module impulse_solver
   use nnls, only: solve_nnls
   implicit none
   private
-  public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, find_root, unite
+  public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, find_root, unite, scaled_velocity, &
+            set_scaled_velocity, scaled_row
 
   !> One contact point between bodies a and b (indices into bodies_t, both valid; either
   !> may be fixed).
