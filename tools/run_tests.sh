@@ -9,4 +9,4 @@ build=${RICOCHET_BUILD_DIR:-build}
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=${RICOCHET_BUILD_TYPE:-Release} >/dev/null
 cmake --build "$build"
 cd "$build"
-ctest --output-on-failure --timeout 900 "$@"
+ctest --output-on-failure --timeout 900 -j "$(nproc)" "$@"

@@ -18,6 +18,13 @@
                   frame, none beyond the walls, kinetic energy at the end < 1e-6 of the
                   energy released (all asleep), no creep over the last 0.5 s, no gap
                   ever below min_separation/2
+  correction      two cubes stacked on a floor with both gaps at 0.6 min_separation: the
+                  first step opens both to the target (distance correction), no lateral
+                  motion, no velocity, one correction moving both
+  pile            1000 cubes, 1000 tetrahedra or 200 L-prisms poured into a box (pile_*.nml):
+                  no overlap at any frame, no body centre ever beyond the walls, all in the
+                  box at the end, kinetic energy at the end < 1e-6 of the energy released, no
+                  gap ever below min_separation/2
   sleep_wake      a cube asleep on a floor is hit by a sliding cube: it wakes at the impact,
                   slides off, and both sleep again; final positions equal those of the same
                   deck without sleeping (sleep_speed = 0) to 1e-5 m
@@ -33,6 +40,7 @@ far (a sliding block with the wrong normal impulse is off by tens of percent).
 Usage: check_resting.py CASE EXE DECK WORKDIR"""
 import math
 import os
+import re
 import sys
 
 import numpy as np
@@ -144,6 +152,58 @@ elif case == "sleep_wake":
     diff = float(np.max(np.abs(pos[-1] - plain_pos[-1])))
     print(f"sleep_wake: slide {slide:.6f} m; final positions differ from the run without sleeping by {diff:.2e} m")
     c.check(diff < 1e-5, f"final positions as without sleeping: {diff:.2e} m < 1e-5 m")
+elif case == "correction":
+    # distance_correction.nml: 0.1 m half-height cubes, floor top at z = 0, both gaps 0.6e-5 m.
+    delta, half = 1.0e-5, 0.1
+    z = pos[:, 1:, 2]
+    gap_floor = z[:, 0] - half
+    gap_cubes = z[:, 1] - z[:, 0] - 2 * half
+    print(f"correction: gaps at the start {gap_floor[0]:.3e}, {gap_cubes[0]:.3e} m; at the end {gap_floor[-1]:.4e}, "
+          f"{gap_cubes[-1]:.4e} m")
+    # The correction aims at 1.05e-5 m; the contact pass then holds the cubes still (a
+    # resting contact only settles towards the floor, half the separation, never lower).
+    for name, g in (("floor", gap_floor), ("cubes", gap_cubes)):
+        c.check(0.95 * delta < g[1] < 1.1 * delta, f"{name} gap opened to the target at the first frame: {g[1]:.4e} m")
+        c.check(float(np.min(g[1:])) > 0.9 * delta, f"{name} gap stays open: {np.min(g[1:]):.4e} m")
+    # positions only: no lateral motion, no velocity given
+    c.check(float(np.max(np.abs(pos[:, 1:, :2] - pos[0, 1:, :2]))) < 1e-12, "no lateral motion")
+    c.check(float(np.max(np.abs(vel[-1, 1:]))) < 1e-9, f"no velocity given: {np.max(np.abs(vel[-1, 1:])):.2e} m/s")
+    summary = [line for line in proc.stdout.splitlines() if "distance corrections" in line]
+    moved = int(re.search(r"(\d+) distance corrections", summary[0]).group(1)) if summary else -1
+    c.check(moved == 2, f"one correction moving the two cubes: {moved} body moves")
+elif case == "pile":
+    # A 1000-body pile poured into an open-top box (tools/bench_resting.py, pile_*.nml),
+    # bodies 1-5 static (floor, four walls). The deck turns on check_overlaps: the run itself
+    # stops with an error on any overlap at any frame. Here: containment, rest, the gap.
+    with open(deck) as f:
+        text = f.read()
+    m = re.search(r"min_separation\s*=\s*([0-9.eE+-]+)", text)
+    target = float(m.group(1))
+    walls = pos[0, 1:5]                        # wall centres (y-, y+, x-, x+), 0.2 m thick
+    inner = min(abs(walls[0, 1]), abs(walls[1, 1]), abs(walls[2, 0]), abs(walls[3, 0])) - 0.1
+    h_wall = 2.0 * float(walls[0, 2])
+    bodies_xy = pos[:, 5:, :2]
+    outside = np.abs(bodies_xy).max(axis=2) > inner
+    final = pos[-1, 5:]
+    c.check(not bool(outside.any()), f"no body centre ever beyond the walls' inner faces ({inner:.3f} m): "
+            f"{int(outside.any(axis=0).sum())} did")
+    c.check(float(final[:, 2].min()) > 0.0 and float(final[:, 2].max()) < h_wall,
+            f"all in the box at the end: z in [{final[:, 2].min():.4f}, {final[:, 2].max():.4f}] m")
+    released = float(h["potential"][0] - h["potential"][-1])
+    kinetic = float(h["kinetic_translational"][-1] + h["kinetic_rotational"][-1])
+    smallest = float(np.min(h["min_separation"]))
+    ke = h["kinetic_translational"] + h["kinetic_rotational"]
+    below = np.nonzero((ke < 1e-6 * released) & (np.arange(ke.size) > np.argmax(ke)))[0]
+    print(f"pile: {final.shape[0]} bodies, {released:.1f} J released, kinetic {kinetic:.3e} J at {h['time'][-1]:.2f} s "
+          f"(first below 1e-6 of it at {h['time'][below[0]] if below.size else float('nan'):.2f} s), "
+          f"{int(h['asleep'][-1])} asleep, {int(h['events'][-1])} events, {int(h['steps'][-1])} steps, "
+          f"smallest gap {smallest:.4e} m, wall {h['wall_time'][-1]:.0f} s")
+    # The guarantee: no gap ever computed below half the minimum separation.
+    c.check(smallest >= 0.5 * target * (1.0 - 1e-9),
+            f"smallest gap {smallest:.4e} m >= min_separation/2 = {0.5 * target:.4e} m")
+    c.check(released > 0.3 * float(h["potential"][0]), f"the bodies fell into the box: {released:.1f} J released")
+    # Issue 6's bar: the kinetic energy decays to under 1e-6 of the potential energy released.
+    c.check(kinetic < 1e-6 * released, f"at rest: kinetic energy {kinetic:.2e} J < 1e-6 of the energy released")
 elif case == "pile_small":
     # 8 cubes poured into a 0.2 m box (tools/bench_resting.py, pile_8_cubes.nml), bodies 1-5
     # static (floor, four walls). The deck turns on check_overlaps, so the run itself stops

@@ -43,10 +43,12 @@ if(RICOCHET_USE_HDF5)
     ricochet_python_case(${deck} check_collisions.py ${case} $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${deck})
   endforeach()
-  foreach(case incline_slide incline_stick sliding_stop rolling_sphere box_on_box ball_rest sleep_wake)
+  foreach(case incline_slide incline_stick sliding_stop rolling_sphere box_on_box ball_rest sleep_wake correction)
     set(deck ${case})
     if(case STREQUAL ball_rest)
       set(deck bouncing_ball_rest)
+    elseif(case STREQUAL correction)
+      set(deck distance_correction)
     endif()
     ricochet_python_case(${case} check_resting.py ${case} $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${case})
@@ -57,6 +59,12 @@ if(RICOCHET_USE_HDF5)
     list(GET pair 1 deck)
     ricochet_python_case(${case} check_resting.py ${case} $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${case})
+  endforeach()
+  # Issue 6's piles: 1000 cubes (about 3 min), 1000 tetrahedra (1.5 min), 200 L-prisms (35 s)
+  foreach(kind cubes tetrahedra l_shapes)
+    ricochet_python_case(pile_${kind} check_resting.py pile $<TARGET_FILE:ricochet>
+                         ${PROJECT_SOURCE_DIR}/input/validation/pile_${kind}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_pile_${kind})
+    set_tests_properties(regression.pile_${kind} PROPERTIES LABELS "regression;slow")
   endforeach()
   # 23 s: the pyramid's first second (exact normal solves of 15 boxes every step) before it sleeps
   set_tests_properties(regression.pyramid PROPERTIES LABELS "regression;slow")

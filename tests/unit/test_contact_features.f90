@@ -52,6 +52,15 @@ program test_contact_features
   call find_contact_features(t_cube, [0.0_dp, 0.0_dp, 0.4_dp + gap], quat_identity, t_slab, origin, quat_identity, &
                              1.0e-3_dp, features, n)
   call check(n == 4, 'box face down, corners on the shared diagonal: 4 features')
+  ! A search far wider than the gap (speculative contacts look as far as the step can reach)
+  ! finds each corner against the triangle it lies over, and not again against the
+  ! neighbouring triangle across the flat diagonal (a point on that edge, up to 11 cm away,
+  ! with a normal tilted towards it: before the filter a block sliding on an incline was
+  ! pushed sideways by such a feature).
+  call find_contact_features(t_cube, [0.1_dp, 0.05_dp, 0.4_dp + gap], quat_identity, t_slab, origin, quat_identity, &
+                             0.15_dp, features, n)
+  call check(n == 4, 'box face down, wide search: still 4 features')
+  call check_normals(features, n, [0.0_dp, 0.0_dp, -1.0_dp], gap, 'box face down, wide search')
   ! The other way round (slab is A): 4 face-vertex features, normal +z from A to B.
   call find_contact_features(t_slab, origin, quat_identity, t_cube, [0.1_dp, 0.05_dp, 0.4_dp + gap], quat_identity, &
                              1.0e-3_dp, features, n)

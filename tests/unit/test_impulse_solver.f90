@@ -1,6 +1,7 @@
 !> Simultaneous frictionless impulses: analytic two-body results, a box landing flat (no
 !> spurious spin), Newton's cradle (only the last ball leaves), and on random contact sets
-!> the invariants: momentum conserved, no energy gained (kept at e = 1), nothing approaching.
+!> the invariants: momentum conserved, no energy gained (kept at e = 1), nothing approaching;
+!> speculative contacts (an allowed approach speed): the projection's KKT conditions.
 program test_impulse_solver
   use kinds, only: dp
   use error_status, only: error_t
@@ -16,6 +17,7 @@ program test_impulse_solver
   type(error_t) :: err
   integer :: i, trial, violations(4)
   real(dp) :: e, ke0, ke1, p0(3), p1(3)
+  real(dp), allocatable :: impulse(:)
   type(random_stream_t) :: rng
   ! Tolerances: every result below is a few flops of exact arithmetic away from its
   ! closed form, so 1e-12 absolute on O(1) velocities leaves ~1e3 ulps for the QR solves.
@@ -93,6 +95,50 @@ program test_impulse_solver
   call check(violations(3) == 0, 'random scenes, e = 1: energy kept to 1e-10')
   call check(violations(4) == 0, 'random scenes: no contact approaches afterwards')
   call check(stats%cap_hits == 0, 'random scenes: reflection loop never hit its cap')
+
+  ! 5. Speculative contacts (the contact pass): a contact may approach at up to its allowed
+  !    speed. A cube falling flat at 2 m/s onto a floor it may approach at 0.5 m/s keeps
+  !    exactly 0.5 m/s (the projection onto u >= -0.5: the appended eps rows shift the answer
+  !    by eps^2 = 1e-10 of the velocity change, so 1e-9 absolute), with no spin; one allowed
+  !    3 m/s is not touched at all.
+  call make_cube_on_floor(bodies, contacts, 0.0_dp)
+  contacts%allowed_approach = 0.5_dp
+  call resolve_impacts(bodies, contacts, 1.0e-9_dp, 20, stats, err)
+  call check(err%ok(), 'speculative landing: solver succeeded')
+  call check_close(bodies%v(3, 2), -0.5_dp, 0.0_dp, 'speculative landing: approaches at the allowed speed', atol=1.0e-9_dp)
+  call check_close(norm2(bodies%w(:, 2)), 0.0_dp, 0.0_dp, 'speculative landing: no spin', atol=1.0e-9_dp)
+  call make_cube_on_floor(bodies, contacts, 0.0_dp)
+  contacts%allowed_approach = 3.0_dp
+  call resolve_impacts(bodies, contacts, 1.0e-9_dp, 20, stats, err)
+  call check(bodies%v(3, 2) == -2.0_dp .and. all(bodies%w(:, 2) == 0.0_dp), 'speculative, slow enough: untouched')
+  ! Random inelastic scenes with random allowed speeds: the KKT conditions of the projection
+  ! (every contact at or above its bound, the loaded ones on it) and no energy gained.
+  call rng%init(5)
+  violations = 0
+  do trial = 1, 200
+    call make_random_scene(rng, bodies, contacts, 0.0_dp)
+    do i = 1, size(contacts)
+      contacts(i)%allowed_approach = merge(0.0_dp, 0.5_dp*rng%uniform(), mod(i, 3) == 0)
+    end do
+    call totals(bodies, ke0, p0)
+    allocate (impulse(size(contacts)))
+    call resolve_impacts(bodies, contacts, 1.0e-9_dp, 100, stats, err, impulse)
+    if (err%failed()) exit
+    call totals(bodies, ke1, p1)
+    if (ke1 > ke0*(1.0_dp + 1.0e-12_dp)) violations(1) = violations(1) + 1
+    do i = 1, size(contacts)
+      if (normal_velocity(bodies, contacts(i)) < -contacts(i)%allowed_approach - 1.0e-8_dp) violations(2) = violations(2) + 1
+      if (impulse(i) > 1.0e-9_dp .and. abs(normal_velocity(bodies, contacts(i)) + contacts(i)%allowed_approach) > 1.0e-8_dp) &
+        violations(3) = violations(3) + 1
+      if (impulse(i) < 0.0_dp) violations(4) = violations(4) + 1
+    end do
+    deallocate (impulse)
+  end do
+  call check(err%ok(), 'speculative scenes: solver never failed')
+  call check(violations(1) == 0, 'speculative scenes: no energy gained')
+  call check(violations(2) == 0, 'speculative scenes: no contact approaches faster than allowed')
+  call check(violations(3) == 0, 'speculative scenes: loaded contacts sit on their bound (complementarity)')
+  call check(violations(4) == 0, 'speculative scenes: impulses push, never pull')
   call test_finish()
 
 contains
