@@ -304,7 +304,7 @@ contains
     integer, parameter :: max_sweeps = 200, max_halvings = 4
     real(dp), allocatable :: lam(:), bound(:), d(:, :), x_saved(:, :), gap_new(:), normal_new(:, :)
     logical, allocatable :: active(:), moves(:)
-    integer :: n, k, i, j, sweep, halving, n_active
+    integer :: n, k, i, j, sweep, halving
     real(dp) :: aim, weight, residual, dl, worst, alpha
     logical :: ok
     n = bodies%n_owned + bodies%n_ghost
@@ -322,7 +322,6 @@ contains
       bound(k) = min(self%pair_gap0(k), aim)
       if (self%pair_gap0(k) < trigger*self%target) bound(k) = aim
     end do
-    n_active = count(active)
     d = 0.0_dp
     do sweep = 1, max_sweeps
       worst = 0.0_dp
@@ -415,8 +414,8 @@ contains
     type(advancement_result_t) :: res
     real(dp) :: gap0, normal0(3), safe, floor
     real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
-    logical, allocatable :: receding(:), far(:), pair_touches(:)
-    logical :: hovering, solved
+    logical, allocatable :: receding(:), far(:), pair_touches(:), solved(:)
+    logical :: hovering
     integer :: n, i, j, k
 
     n = bodies%n_owned + bodies%n_ghost
@@ -456,6 +455,15 @@ contains
     pair_gap0 = self%pair_gap0(1:self%n_pairs)
     pair_normal = self%pair_normal(:, 1:self%n_pairs)
     far = self%pair_far(1:self%n_pairs)
+    ! Inelastic pairs the contact pass solved (in the band, or speculative: not yet touching),
+    ! still above the floor: their contact points may approach only as fast as closes them to
+    ! the band in the step, and whatever the solve left is bounded below as it is.
+    allocate (solved(self%n_pairs))
+    do k = 1, self%n_pairs
+      solved(k) = self%pair_in_pass(k) .and. .not. far(k) .and. pair_gap0(k) > 0.5_dp*self%target + self%tolerance
+      if (solved(k)) solved(k) = self%materials%pair_restitution(bodies%group_id(self%pairs(1, k)), &
+                                                                 bodies%group_id(self%pairs(2, k))) <= 0.0_dp
+    end do
     ! In the contact band, measure whether any contact point really approaches: the bound's
     ! turning term (Omega r) says "may approach" for every spinning pair in contact.
     ! Receding pairs settle towards the floor instead of stopping the run (pairs already
@@ -466,10 +474,7 @@ contains
       i = self%pairs(1, k)
       j = self%pairs(2, k)
       if (far(k)) cycle
-      if (pair_gap0(k) > self%target + self%tolerance) cycle
-      ! (inelastic pairs the contact pass solved are bounded as they are, down to the floor)
-      if (self%pair_in_pass(k) .and. pair_gap0(k) > 0.5_dp*self%target + self%tolerance .and. &
-          self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j)) <= 0.0_dp) cycle
+      if (pair_gap0(k) > self%target + self%tolerance .or. solved(k)) cycle
       gap0 = pair_gap0(k)
       normal0 = pair_normal(:, k)
       motion = pair_motion(shapes, bodies, flight, i, j, gravity)
@@ -495,14 +500,10 @@ contains
       ! steps; such a contact is a resting one, not an impact whose timing matters.
       safe = 0.0_dp
       hovering = .false.
-      solved = self%pair_in_pass(k) .and. gap0 > 0.5_dp*self%target + self%tolerance
-      if (solved) solved = self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j)) <= 0.0_dp
-      if (solved) then
-        ! An inelastic pair the contact pass solved (in the band, or speculative: not yet
-        ! touching): its contact points may approach only as fast as closes them to the band
-        ! in the step, and whatever the solve left is bounded here. It may come down to the
-        ! settling floor; only there is it an event. Turning pairs: the second-order bound,
-        ! re-tested along the step (extend_receding), with the first-order bound crawl-limited.
+      if (solved(k)) then
+        ! A solved pair may come down to the settling floor; only there is it an event.
+        ! Turning pairs: the second-order bound, re-tested along the step (extend_receding),
+        ! with the first-order bound crawl-limited.
         if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
           safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target + self%tolerance, &
                                  h_event)
@@ -512,26 +513,26 @@ contains
                           0.5_dp*self%target, self%velocity_tolerance, self%max_iterations, res, safe_time=safe, &
                           hovering=.true.)
       else
-      if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
-        if (gap0 > self%target + self%tolerance) then
-          floor = self%target + self%tolerance
-          hovering = gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed
-          if (hovering) floor = 0.75_dp*self%target
-          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, floor, h_event)
-        else if (receding(k) .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
-          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, h_event)
+        if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
+          if (gap0 > self%target + self%tolerance) then
+            floor = self%target + self%tolerance
+            hovering = gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed
+            if (hovering) floor = 0.75_dp*self%target
+            safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, floor, h_event)
+          else if (receding(k) .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
+            safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, h_event)
+          end if
+          if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
         end if
-        if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
-      end if
-      call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, 0.5_dp*self%target, &
-                        self%velocity_tolerance, self%max_iterations, res, receding=receding(k), safe_time=safe, &
-                        hovering=hovering)
+        call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, 0.5_dp*self%target, &
+                          self%velocity_tolerance, self%max_iterations, res, receding=receding(k), safe_time=safe, &
+                          hovering=hovering)
       end if
       self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
       self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
-      if ((receding(k) .or. solved) .and. (res%contact .or. res%capped) .and. res%time > 0.0_dp .and. &
+      if ((receding(k) .or. solved(k)) .and. (res%contact .or. res%capped) .and. res%time > 0.0_dp .and. &
           res%time < h_event .and. flight%exact) then
-        call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_event, res, solved)
+        call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_event, res, solved(k))
       end if
       if (res%capped) self%stats%capped = self%stats%capped + 1
       if (res%contact .or. res%capped) then

@@ -498,6 +498,8 @@ contains
         write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  contact solver       ', rest%pgs%solves, ' PGS solves, ', &
           rest%pgs%sweeps, ' sweeps (max ', rest%pgs%max_sweeps_seen, ', capped ', rest%pgs%cap_hits, &
           '), '//str(rest%exact%groups)//' exact groups'
+        if (rest%stats%stuck > 0) write (*, '(a)') '  static friction      '//str(rest%stats%stuck)// &
+          ' group-steps held still exactly (sticking solve)'
         if (rest%stats%staggered_solves > 0) write (*, '(a)') '  friction groups      '// &
           str(rest%stats%staggered_solves)//' staggered solves, '//str(rest%stats%staggered_rounds)//' rounds ('// &
           str(rest%stats%staggered_capped)//' capped), '//str(rest%stats%projections)//' finished by the projection'
