@@ -404,7 +404,8 @@ contains
       end associate
     end do
     allocate (beta(edges*n_active))
-    call solve_nnls(e_matrix, -vt_base, beta, iterations, err, converged)
+    ! (only E beta matters: the pyramid's edges are dependent by construction, no spreading)
+    call solve_nnls(e_matrix, -vt_base, beta, iterations, err, converged, spread=.false.)
     if (err%failed() .or. .not. converged) return
     vt_saved = vt
     vt = vt_base + matmul(e_matrix, beta)

@@ -44,12 +44,15 @@ contains
   !> (3 n + 10: rank-deficient problems, such as many contact points on few bodies, can make
   !> the active set cycle) the loop stops with the last feasible x (x >= 0, not optimal)
   !> and converged = .false. when the argument is present, else err is set.
-  subroutine solve_nnls(e, f, x, iterations, err, converged)
+  !> spread (default true): move x to the minimum-norm point over the dependent columns at
+  !> the end (spread_over_dependent); a caller that needs only E x may skip it.
+  subroutine solve_nnls(e, f, x, iterations, err, converged, spread)
     real(dp), intent(in) :: e(:, :), f(:)
     real(dp), intent(out) :: x(:)
     integer, intent(out) :: iterations
     type(error_t), intent(inout) :: err
     logical, intent(out), optional :: converged
+    logical, intent(in), optional :: spread
     type(passive_qr_t) :: qr
     integer :: m, n, j, p, t, max_iterations, inner, kmax, blocking
     logical :: passive(size(e, 2)), blocked(size(e, 2)), added
@@ -139,6 +142,9 @@ contains
       residual = f - matmul(e, x)
       w = matmul(transpose(e), residual)
     end do outer
+    if (present(spread)) then
+      if (.not. spread) return
+    end if
     call spread_over_dependent(qr, e, x, w, tolerance, passive)
   end subroutine solve_nnls
 
