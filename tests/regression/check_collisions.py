@@ -29,12 +29,13 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from ricochet_run import Checks, frames, history, run
+from ricochet_run import Checks, check_separation_floor, frames, history, run
 
 case, exe, deck, work = sys.argv[1:5]
 out = os.path.join(work, "out")
 proc = run(exe, deck, out)
 c = Checks()
+check_separation_floor(c, proc)
 fr = frames(out)
 t_last, last = fr[-1]
 v = last["velocity"].reshape(-1, 3)

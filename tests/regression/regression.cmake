@@ -60,6 +60,8 @@ if(RICOCHET_USE_HDF5)
     ricochet_python_case(${case} check_resting.py ${case} $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/${deck}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${case})
   endforeach()
+  ricochet_python_case(demo check_resting.py demo $<TARGET_FILE:ricochet>
+                       ${PROJECT_SOURCE_DIR}/input/demo.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_demo)
   # Issue 6's piles: 1000 cubes (about 3 min), 1000 tetrahedra (1.5 min), 200 L-prisms (35 s)
   foreach(kind cubes tetrahedra l_shapes)
     ricochet_python_case(pile_${kind} check_resting.py pile $<TARGET_FILE:ricochet>

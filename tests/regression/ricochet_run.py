@@ -1,6 +1,7 @@
 """Helpers for regression checks that run the ricochet program: run a deck, read frames,
 history and checkpoints. Each check script counts failures and exits non-zero on any."""
 import os
+import re
 import subprocess
 import sys
 
@@ -34,6 +35,26 @@ def run(exe, deck, out_dir, *extra, expect_ok=True):
         print(proc.stderr)
         sys.exit(f"ricochet failed ({proc.returncode}): {' '.join(cmd)}")
     return proc
+
+
+def smallest_separation(proc):
+    """(smallest gap ever computed, min_separation) [m] from the end-of-run summary, or None
+    when no two bodies ever came near. The method's guarantee: the first is never below half
+    the second."""
+    for line in proc.stdout.splitlines():
+        m = re.search(r"smallest separation\s+([0-9.eE+-]+) m \(minimum separation\s+([0-9.eE+-]+) m\)", line)
+        if m:
+            return float(m.group(1)), float(m.group(2))
+    return None
+
+
+def check_separation_floor(checks, proc):
+    """The guarantee, on every run that reports it: no gap below min_separation/2."""
+    found = smallest_separation(proc)
+    if found is not None:
+        smallest, target = found
+        checks.check(smallest >= 0.5 * target * (1.0 - 1e-9),
+                     f"no gap ever below min_separation/2: smallest {smallest:.4e} m, min_separation {target:.4e} m")
 
 
 def frames(out_dir):
