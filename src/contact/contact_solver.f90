@@ -30,7 +30,7 @@ module contact_solver
   use vector_ops, only: cross
   use quaternion, only: quat_rotate, quat_rotate_inverse
   use body_state, only: bodies_t
-  use impulse_solver, only: contact_t
+  use impulse_solver, only: contact_t, group_members
   implicit none
   private
   public :: pgs_stats_t, solve_contacts_pgs, tangent_basis
@@ -122,13 +122,7 @@ contains
     ! The bodies of the group (moving ones), whose velocity changes per sweep end the loop:
     ! with more contact points than the impulses need (four corners of a face), impulses
     ! can drift between points while the velocities have long converged.
-    allocate (members(2*m), slot(size(bodies%fixed)))
-    slot = 0
-    n_members = 0
-    do c = 1, m
-      call enlist(contacts(c)%a)
-      call enlist(contacts(c)%b)
-    end do
+    call group_members(bodies, contacts, members, slot, n_members)
     ! reach: the farthest contact point of a body's contacts from its centre
     allocate (v_prev(3, n_members), w_prev(3, n_members), reach(n_members))
     reach = 0.0_dp
@@ -208,15 +202,6 @@ contains
         end if
       end associate
     end subroutine apply_local
-
-    subroutine enlist(i)
-      integer, intent(in) :: i
-      if (bodies%fixed(i)) return
-      if (slot(i) > 0) return
-      n_members = n_members + 1
-      members(n_members) = i
-      slot(i) = n_members
-    end subroutine enlist
 
     !> Velocity of b minus velocity of a at contact cc's point [m/s] (arms fixed in the solve).
     pure function contact_velocity(cc) result(uu)

@@ -26,7 +26,7 @@ module impulse_solver
   implicit none
   private
   public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, find_root, unite, scaled_velocity, &
-            set_scaled_velocity, scaled_row
+            set_scaled_velocity, scaled_row, group_members
 
   !> One contact point between bodies a and b (indices into bodies_t, both valid; either
   !> may be fixed).
@@ -149,6 +149,28 @@ contains
     end do
   end subroutine resolve_impacts
 
+  !> The moving bodies of a set of contacts, each once, in order of first appearance:
+  !> members(1:n_members), and slot(i) = the position of body i there (0: fixed or absent).
+  pure subroutine group_members(bodies, contacts, members, slot, n_members)
+    type(bodies_t), intent(in) :: bodies
+    type(contact_t), intent(in) :: contacts(:)
+    integer, allocatable, intent(out) :: members(:), slot(:)
+    integer, intent(out) :: n_members
+    integer :: c, side, i
+    allocate (members(2*size(contacts)), slot(size(bodies%fixed)))
+    slot = 0
+    n_members = 0
+    do c = 1, size(contacts)
+      do side = 1, 2
+        i = merge(contacts(c)%a, contacts(c)%b, side == 1)
+        if (bodies%fixed(i) .or. slot(i) > 0) cycle
+        n_members = n_members + 1
+        members(n_members) = i
+        slot(i) = n_members
+      end do
+    end do
+  end subroutine group_members
+
   pure logical function moving(bodies, i)
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: i
@@ -198,13 +220,7 @@ contains
 
     m = size(contacts)
     ! Local numbering of the moving bodies of the group.
-    allocate (slot(bodies%n_owned + bodies%n_ghost), members(2*m))
-    slot = 0
-    n_members = 0
-    do i = 1, m
-      call enlist(contacts(i)%a)
-      call enlist(contacts(i)%b)
-    end do
+    call group_members(bodies, contacts, members, slot, n_members)
     allocate (e_matrix(6*n_members, m), vt0(6*n_members))
     e_matrix = 0.0_dp
     do k = 1, n_members
@@ -276,17 +292,6 @@ contains
       call set_scaled_velocity(bodies, members(k), vt0(6*k - 5:6*k))
     end do
     stats%groups = stats%groups + 1
-
-  contains
-
-    subroutine enlist(i)
-      integer, intent(in) :: i
-      if (bodies%fixed(i) .or. slot(i) > 0) return
-      n_members = n_members + 1
-      members(n_members) = i
-      slot(i) = n_members
-    end subroutine enlist
-
   end subroutine solve_group
 
   !> The inelastic projection with speculative contacts: the velocity closest to vt0 (in the

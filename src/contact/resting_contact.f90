@@ -29,7 +29,7 @@ module resting_contact
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
   use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, find_root, unite, &
-                            scaled_velocity, set_scaled_velocity, scaled_row
+                            scaled_velocity, set_scaled_velocity, scaled_row, group_members
   use contact_solver, only: pgs_stats_t, solve_contacts_pgs, tangent_basis
   use nnls, only: solve_nnls
   use vector_ops, only: cross
@@ -366,13 +366,7 @@ contains
     active = pack([(c, c=1, m)], hold)
     n_active = size(active)
     if (n_active == 0) return
-    allocate (slot(size(bodies%fixed)), members(2*m))
-    slot = 0
-    n_members = 0
-    do c = 1, m
-      call enlist(contacts(c)%a)
-      call enlist(contacts(c)%b)
-    end do
+    call group_members(bodies, contacts, members, slot, n_members)
     ! Columns: the pyramid edges of every loaded contact, as mass-scaled velocity changes.
     allocate (e_matrix(6*n_members, edges*n_active), vt(6*n_members), generator(3, edges, n_active))
     e_matrix = 0.0_dp
@@ -431,13 +425,6 @@ contains
     stuck = .true.
     self%stats%stuck = self%stats%stuck + 1
   contains
-    subroutine enlist(i)
-      integer, intent(in) :: i
-      if (bodies%fixed(i) .or. slot(i) > 0) return
-      n_members = n_members + 1
-      members(n_members) = i
-      slot(i) = n_members
-    end subroutine enlist
     !> The mass-scaled velocity change of body i from impulse p at contact c's point (world).
     function scaled_impulse(i, p) result(dvt)
       integer, intent(in) :: i
@@ -463,24 +450,8 @@ contains
   integer function moving_bodies(bodies, contacts) result(count_moving)
     type(bodies_t), intent(in) :: bodies
     type(contact_t), intent(in) :: contacts(:)
-    integer, allocatable :: seen(:)
-    integer :: c, n_seen
-    allocate (seen(2*size(contacts)))
-    n_seen = 0
-    do c = 1, size(contacts)
-      call note(contacts(c)%a, bodies%fixed(contacts(c)%a))
-      call note(contacts(c)%b, bodies%fixed(contacts(c)%b))
-    end do
-    count_moving = n_seen
-  contains
-    subroutine note(i, fixed)
-      integer, intent(in) :: i
-      logical, intent(in) :: fixed
-      if (fixed) return
-      if (any(seen(1:n_seen) == i)) return
-      n_seen = n_seen + 1
-      seen(n_seen) = i
-    end subroutine note
+    integer, allocatable :: members(:), slot(:)
+    call group_members(bodies, contacts, members, slot, count_moving)
   end function moving_bodies
 
 end module resting_contact
