@@ -1,15 +1,20 @@
-!> The collision stage of a step: broad phase, time of contact of every candidate pair by
-!> conservative advancement, and, once the bodies have been moved to the earliest contact,
-!> the contact sets of the touching pairs and their simultaneous impulses.
+!> The collision stage of a step: candidate pairs, distance correction, the contact pass,
+!> time of contact of every candidate pair by conservative advancement, and, once the bodies
+!> have been moved to the earliest contact, the contact sets of the touching pairs and their
+!> simultaneous impulses (docs/contact.md, "One step").
 !>
 !> Per step: (1) limit_step caps the step so that no body moves more than one grid box;
-!> (2) earliest_contact puts every body's bounding sphere, grown by how far it can travel
-!> in the step, into the bucket grid, takes the candidate pairs (two rings), computes their
-!> closest points and advances each pair (time_of_contact) with the motion the propagator
-!> will make; the smallest time is the step; (3) after the move, resolve builds the contact
-!> points of the pairs that reached contact (all features within the contact tolerance) and
-!> applies the impulses (impulse_solver). Bodies far from everything cost a grid entry and
-!> no closest-point query.
+!> (2) prepare puts every body's bounding sphere, grown by how far it can travel in the step
+!> and by the contact band, into the bucket grid, takes the candidate pairs (two rings) and
+!> the closest points of those that can come within the band, once for the step;
+!> (3) correct_distances opens pairs that settled below 3/4 of the minimum separation;
+!> (4) contact_pass solves the band contacts and the speculative ones (inelastic pairs that
+!> can touch within the step) at velocity level (resting_contact); (5) earliest_contact
+!> advances each pair (time_of_contact) with the motion the propagator will make, pairs the
+!> pass solved down to the settling floor; the smallest time is the step; (6) after the
+!> move, resolve builds the contact points of the pairs that reached contact (all features
+!> within the contact tolerance) and applies the impulses (impulse_solver). Bodies far from
+!> everything cost a grid entry and no closest-point query.
 module collision_stage
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_NUMERIC
