@@ -31,6 +31,7 @@ module free_flight
   contains
     procedure :: set_load => flight_set_load
     procedure :: clear_load => flight_clear_load
+    procedure :: clear_all_loads => flight_clear_all_loads
     procedure :: acceleration => flight_acceleration
     procedure :: init => flight_init
     procedure :: release => flight_release
@@ -85,6 +86,15 @@ contains
     self%loaded(i) = .false.
     call self%release(i)
   end subroutine flight_clear_load
+
+  !> Every body back under gravity alone (checkpoints: a run restarted from one starts so).
+  subroutine flight_clear_all_loads(self)
+    class(free_flight_t), intent(inout) :: self
+    integer :: i
+    do i = 1, size(self%loaded)
+      call self%clear_load(i)
+    end do
+  end subroutine flight_clear_all_loads
 
   !> The acceleration body i moves with [m/s^2].
   pure function flight_acceleration(self, i, gravity) result(a)

@@ -407,7 +407,10 @@ contains
     call self%collisions%wake_all(self%bodies, self%propagator)
     call self%fill_meta(par, meta)
     call write_checkpoint(par, join_path(self%output_dir, name//'.h5'), meta, self%bodies, err)
-    ! Exact flight re-anchors at the checkpoint's state, as a run restarted from it will.
+    ! Exact flight re-anchors at the checkpoint's state, as a run restarted from it will, and
+    ! no body carries the contact pass's load into the next step (the candidate pairs of a
+    ! step's start depend on it: a restart has none).
+    call self%propagator%clear_all_loads()
     call self%propagator%release_all()
     call self%collisions%resting%forget()
   end subroutine write_checkpoint_now
