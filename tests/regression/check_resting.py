@@ -123,7 +123,7 @@ elif case in ("stack", "pyramid"):
     drift = np.linalg.norm(pos[-1, 1:] - pos[0, 1:], axis=1)
     top = int(np.argmax(pos[0, 1:, 2])) + 1
     print(f"{case}: top drift {drift[top - 1]:.3e} m, largest {drift.max():.3e} m after {times[-1]:.1f} s; "
-          f"{int(h['steps'][-1])} steps")
+          f"{int(h['steps'][-1])} steps; {times[-1] / h['wall_time'][-1]:.1f} simulated s per wall s")
     c.check(float(drift.max()) < 1e-3, f"everything stands: largest drift {drift.max():.3e} m < 1e-3 m")
     c.check(float(np.max(np.linalg.norm(vel[-1, 1:], axis=1))) < 1e-3, "at rest at the end")
     asleep = int(h["asleep"][-1])
