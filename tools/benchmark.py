@@ -199,7 +199,7 @@ def bouncing_ball(args):
         with tempfile.TemporaryDirectory() as work:
             cpu, wall, out, stdout = run_deck(args.exe, deck, work, args.repeat)
             import h5py
-            names = sorted(os.listdir(os.path.join(out, "frames")))
+            names = sorted(f for f in os.listdir(os.path.join(out, "frames")) if f.endswith(".h5"))
             with h5py.File(os.path.join(out, "frames", names[-1]), "r") as f:
                 z = float(np.array(f["bodies"]["position"])[1, 2])
                 vz = float(np.array(f["bodies"]["velocity"])[1, 2])

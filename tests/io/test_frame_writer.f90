@@ -1,6 +1,7 @@
 !> Frame output: three frames of three bodies (an analytic sphere and two copies of a
 !> hand-made box mesh whose principal frame is turned against its own frame), the XDMF
-!> indexes, restart of the frame list. The companion check_xdmf.py (io.frame_writer_xdmf)
+!> indexes in blocks of two frames (a finished block included from its own file), restart
+!> of the frame list. The companion check_xdmf.py (io.frame_writer_xdmf)
 !> then opens the result with VTK's XDMF reader, as ParaView does, and checks the values.
 program test_frame_writer
   use kinds, only: dp, i8
@@ -35,26 +36,44 @@ program test_frame_writer
   end if
   call check(err%ok(), 'init: '//message(err))
   call check(file_exists('output/frames'), 'init creates output/frames')
+  writer%block_frames = 2
+  call remove_file('output/frames/surfaces_block_000000.xmf')   ! of an earlier run of this test
 
-  ! Frames 0 and 1 of a first run, then a "crash".
-  do frame = 0, 1
-    call move_to(bodies, frame*dt)
-    call writer%write(par, frame*dt, bodies, shapes, group_names, err)
-    call check(err%ok(), 'write frame '//char(48 + frame)//': '//message(err))
-  end do
+  ! Frame 0 of a first run: listed in the index itself.
+  call move_to(bodies, 0.0_dp)
+  call writer%write(par, 0.0_dp, bodies, shapes, group_names, err)
+  call check(err%ok(), 'write frame 0: '//message(err))
+  call check(count_in_file('output/surfaces.xmf', '<Time ') == 1, 'surfaces.xmf lists frame 0')
+  call check(.not. file_exists('output/frames/surfaces_block_000000.xmf'), 'no block file before the block is full')
+  ! Frame 1 completes block 0: its two grids move into frames/{surfaces,bodies}_block_000000.xmf.
+  call move_to(bodies, dt)
+  call writer%write(par, dt, bodies, shapes, group_names, err)
+  call check(err%ok(), 'write frame 1: '//message(err))
   call check(writer%n_frames == 2, 'two frames counted')
-  call check(count_in_file('output/surfaces.xmf', '<Time ') == 2, 'surfaces.xmf lists two frames')
-  call check(count_in_file('output/bodies.xmf', '<Time ') == 2, 'bodies.xmf lists two frames')
+  call check(count_in_file('output/surfaces.xmf', '<Time ') == 0, 'surfaces.xmf lists no frame itself')
+  call check(count_in_file('output/surfaces.xmf', 'href="frames/surfaces_block_000000.xmf"') == 1, &
+             'surfaces.xmf includes block 0')
+  call check(count_in_file('output/bodies.xmf', 'href="frames/bodies_block_000000.xmf"') == 1, &
+             'bodies.xmf includes block 0')
+  call check(count_in_file('output/frames/surfaces_block_000000.xmf', '<Time ') == 2, 'block 0 lists two frames')
+  call check(count_in_file('output/frames/bodies_block_000000.xmf', '<Time ') == 2, 'block 0 of bodies lists two')
   call check(.not. file_exists('output/frames/frame_000001.h5.tmp'), 'no temporary frame left')
   call check(.not. file_exists('output/surfaces.xmf.tmp'), 'no temporary index left')
-  ! A third frame at a wrong time that the restart must replace.
-  call move_to(bodies, 5.0_dp)
-  call writer%write(par, 5.0_dp, bodies, shapes, group_names, err)
-  call check(err%ok() .and. writer%n_frames == 3, 'a frame after the checkpoint')
+  call check(.not. file_exists('output/frames/surfaces_block_000000.xmf.tmp'), 'no temporary block left')
+  ! Then a "crash" after two frames at wrong times that the restart must replace, the
+  ! second of which completes block 1: its block file lists the wrong times.
+  do frame = 2, 3
+    call move_to(bodies, 5.0_dp*frame)
+    call writer%write(par, 5.0_dp*frame, bodies, shapes, group_names, err)
+  end do
+  call check(err%ok() .and. writer%n_frames == 4, 'two frames after the checkpoint')
+  call check(count_in_file('output/frames/surfaces_block_000001.xmf', '1.0000000000000000E+001') == 1, &
+             'the stale block 1 on disk')
 
   ! Restart from a checkpoint taken after frame 1: frame 2 is written again, and the
   ! indexes then list frames 0, 1 (sizes read back from their files) and the new frame 2.
   call restarted%init(par, 'output', err)
+  restarted%block_frames = 2
   call restarted%restore(2, writer%frame_times(1:2))
   call check(restarted%n_frames == 2, 'restored two frames')
   call check(all(restarted%frame_times(1:2) == [0.0_dp, dt]), 'restored frame times')
@@ -64,12 +83,18 @@ program test_frame_writer
   call check(restarted%n_frames == 3, 'three frames after the restart')
   call check(all(restarted%frame_sizes(:, 1:3) == spread([3_i8, 178_i8, 344_i8], 2, 3)), &
              'sizes of the restored frames read back')
-  call check(count_in_file('output/surfaces.xmf', '<Time ') == 3, 'surfaces.xmf lists three frames')
-  call check(count_in_file('output/bodies.xmf', '<Time ') == 3, 'bodies.xmf lists three frames')
-  call check(count_in_file('output/surfaces.xmf', 'NumberOfElements="344"') == 3, 'triangle counts in the index')
+  ! Block 0 (frames 0, 1) included, frame 2 listed, the stale block 1 not referenced.
+  call check(count_in_file('output/surfaces.xmf', '<Time ') == 1, 'surfaces.xmf lists frame 2 itself')
+  call check(count_in_file('output/bodies.xmf', '<Time ') == 1, 'bodies.xmf lists frame 2 itself')
+  call check(count_in_file('output/surfaces.xmf', '<xi:include ') == 1, 'surfaces.xmf includes block 0 only')
+  call check(count_in_file('output/frames/surfaces_block_000000.xmf', '<Time ') == 2, 'block 0 lists two frames')
+  call check(count_in_file('output/frames/surfaces_block_000000.xmf', 'NumberOfElements="344"') == 2 .and. &
+             count_in_file('output/surfaces.xmf', 'NumberOfElements="344"') == 1, 'triangle counts in the indexes')
   call check(count_in_file('output/bodies.xmf', 'frames/frame_000002.h5:/bodies/position') == 1, &
              'bodies.xmf points at frame 2 by a relative path')
-  call check(count_in_file('output/surfaces.xmf', '5.0000000000000000E+000') == 0, &
+  call check(count_in_file('output/frames/bodies_block_000000.xmf', 'frames/frame_000001.h5:/bodies/position') == 1, &
+             'a block points at its frames by paths relative to the index')
+  call check(count_in_file('output/surfaces.xmf', '1.0000000000000000E+001') == 0, &
              'the replaced frame time is gone')
 
   ! Restoring frames whose files are missing names the file at the next write.
@@ -156,6 +181,13 @@ contains
     b%x(:, 2) = [2.0_dp, 0.0_dp, 0.0_dp] + t*b%v(:, 2)
     b%x(:, 3) = [-2.0_dp, 0.0_dp, 0.0_dp] + t*b%v(:, 3)
   end subroutine move_to
+
+  subroutine remove_file(path)
+    character(len=*), intent(in) :: path
+    integer :: unit, status
+    open (newunit=unit, file=path, status='old', iostat=status)
+    if (status == 0) close (unit, status='delete')
+  end subroutine remove_file
 
   integer function count_in_file(path, text) result(n)
     character(len=*), intent(in) :: path, text

@@ -3,9 +3,16 @@
 !> HDF5, each rank writing its owned rows at its offset, then rewrites the two XDMF indexes
 !> dir/surfaces.xmf and dir/bodies.xmf, each one temporal collection of all frames so far.
 !>
+!> Cost: the frames are listed in blocks of block_frames. A block's grids are written once,
+!> into dir/frames/{surfaces,bodies}_block_NNNNNN.xmf, when its last frame is written; the
+!> indexes include the finished blocks (XInclude, which ParaView's XDMF reader resolves) and
+!> list the frames of the open block themselves. Rewriting an index after a frame then costs
+!> n/block_frames short lines plus at most block_frames grids, not n grids: a run of 2,000
+!> frames spent 26 ms per frame rewriting full indexes.
+!>
 !> Crash safety: a frame is written under a temporary name and renamed once complete, and the
-!> XDMF files are replaced by rename after the frame exists, so a run that stops at any point
-!> leaves every frame the XDMF files list complete and readable.
+!> block files and the XDMF indexes are replaced by rename after what they list exists, so a
+!> run that stops at any point leaves every frame the XDMF files list complete and readable.
 module frame_writer
   use kinds, only: dp, i8
   use constants, only: name_length
@@ -35,6 +42,8 @@ module frame_writer
     !> Sizes of each frame (bodies, surface points, triangles): the XDMF index needs them
     !> (-1 for restored frames until their files are read back; rank 0 only).
     integer(i8), allocatable :: frame_sizes(:, :)   !< (3, capacity)
+    integer :: block_frames = 32                 !< frames per block file of the indexes (0: none)
+    integer :: n_blocks_written = 0              !< blocks whose files this writer has written
     type(surface_render_t) :: render
   contains
     procedure :: init => frame_init
@@ -77,12 +86,15 @@ contains
     if (allocated(self%frame_times)) deallocate (self%frame_times)
     if (allocated(self%frame_sizes)) deallocate (self%frame_sizes)
     self%n_frames = 0
+    self%n_blocks_written = 0
   end subroutine frame_free
 
   !> Continues after a restart: frames 1..n_frames (times from the checkpoint) count as
   !> written; later frame files are overwritten as the run goes on. Local, no I/O: the sizes
   !> of the restored frames, which the XDMF indexes need, are read back from their files
-  !> (on rank 0) when the next frame is written, which then rewrites the indexes.
+  !> (on rank 0) when the next frame is written, which then rewrites the block files of the
+  !> restored frames (a block file on disk may come from frames after the checkpoint) and
+  !> the indexes.
   subroutine frame_restore(self, n_frames, frame_times)
     class(frame_writer_t), intent(inout) :: self
     integer, intent(in) :: n_frames
@@ -93,6 +105,7 @@ contains
     self%n_frames = n
     self%frame_times(1:n) = frame_times(1:n)
     self%frame_sizes = unknown_size
+    self%n_blocks_written = 0
   end subroutine frame_restore
 
   !> Reads the sizes of restored frames back from their files (rank 0).
@@ -220,6 +233,12 @@ contains
     if (par%is_root()) then
       call rename_file(temporary, final_path, err)
       call resolve_sizes(self, err)
+      do while (err%ok() .and. self%block_frames > 0 .and. &
+                (self%n_blocks_written + 1)*self%block_frames <= self%n_frames)
+        call write_block(self, self%n_blocks_written, 'surfaces', err)
+        call write_block(self, self%n_blocks_written, 'bodies', err)
+        self%n_blocks_written = self%n_blocks_written + 1
+      end do
       if (err%ok()) call write_indexes(self, err)
     end if
     call agree(par, err, 'publishing a frame failed on rank 0')
@@ -252,83 +271,145 @@ contains
   subroutine write_indexes(self, err)
     type(frame_writer_t), intent(in) :: self
     type(error_t), intent(inout) :: err
-    call write_index(self, 'surfaces.xmf', .true., err)
-    call write_index(self, 'bodies.xmf', .false., err)
+    call write_index(self, 'surfaces', err)
+    call write_index(self, 'bodies', err)
   end subroutine write_indexes
 
-  !> One XDMF 2 file: a temporal collection with one uniform grid per frame. Paths to the
-  !> HDF5 files are relative to the .xmf (ParaView resolves them from the .xmf's folder).
-  subroutine write_index(self, name, surfaces, err)
+  !> Relative path of block number `block` (0-based) of index `kind` from the output folder.
+  function block_file_name(kind, block) result(name)
+    character(len=*), intent(in) :: kind
+    integer, intent(in) :: block
+    character(len=:), allocatable :: name
+    character(len=16) :: number
+    write (number, '(i6.6)') block
+    name = 'frames/'//kind//'_block_'//trim(number)//'.xmf'
+  end function block_file_name
+
+  !> One XDMF 2 index, dir/<kind>.xmf: a temporal collection with one uniform grid per
+  !> frame: the finished blocks by XInclude, then the frames of the open block. Paths to the
+  !> HDF5 files are relative to the .xmf (ParaView resolves them from the .xmf's folder,
+  !> included grids too).
+  subroutine write_index(self, kind, err)
     type(frame_writer_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    logical, intent(in) :: surfaces
+    character(len=*), intent(in) :: kind
     type(error_t), intent(inout) :: err
-    character(len=:), allocatable :: path, temporary, h5, nb, np, nt
-    integer :: unit, status, i
+    integer :: unit, block, i
     if (err%failed()) return
-    path = join_path(self%dir, name)
-    temporary = path//'.tmp'
+    call open_xdmf(join_path(self%dir, kind//'.xmf.tmp'), kind, unit, err, includes=.true.)
+    if (err%failed()) return
+    do block = 0, self%n_blocks_written - 1
+      write (unit, '(a)') '   <xi:include href="'//block_file_name(kind, block)// &
+        '" xpointer="xpointer(//Xdmf/Domain/Grid/Grid)"/>'
+    end do
+    do i = self%n_blocks_written*self%block_frames + 1, self%n_frames
+      call write_grid(self, unit, kind, i)
+    end do
+    call close_xdmf(unit, join_path(self%dir, kind//'.xmf'), err)
+  end subroutine write_index
+
+  !> Block number `block` (0-based) of index `kind`: the grids of its block_frames frames, in
+  !> an XDMF file of their own that the index includes.
+  subroutine write_block(self, block, kind, err)
+    type(frame_writer_t), intent(in) :: self
+    integer, intent(in) :: block
+    character(len=*), intent(in) :: kind
+    type(error_t), intent(inout) :: err
+    integer :: unit, i
+    character(len=:), allocatable :: path
+    if (err%failed()) return
+    path = join_path(self%dir, block_file_name(kind, block))
+    call open_xdmf(path//'.tmp', kind//'_block_'//str(block), unit, err, includes=.false.)
+    if (err%failed()) return
+    do i = block*self%block_frames + 1, (block + 1)*self%block_frames
+      call write_grid(self, unit, kind, i)
+    end do
+    call close_xdmf(unit, path, err)
+  end subroutine write_block
+
+  !> Opens `temporary` and writes the head of an XDMF 2 file up to the opening of its
+  !> temporal collection `name` (includes: an index, which includes blocks).
+  subroutine open_xdmf(temporary, name, unit, err, includes)
+    character(len=*), intent(in) :: temporary, name
+    integer, intent(out) :: unit
+    type(error_t), intent(inout) :: err
+    logical, intent(in) :: includes
+    integer :: status
     open (newunit=unit, file=temporary, status='replace', action='write', form='formatted', iostat=status)
     if (status /= 0) then
       call err%set(ERR_IO, "cannot create '"//temporary//"'")
       return
     end if
     write (unit, '(a)') '<?xml version="1.0" ?>'
-    write (unit, '(a)') '<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>'
-    write (unit, '(a)') '<Xdmf Version="2.0">'
-    write (unit, '(a)') ' <Domain>'
-    if (surfaces) then
-      write (unit, '(a)') '  <Grid Name="surfaces" GridType="Collection" CollectionType="Temporal">'
+    if (includes) then
+      write (unit, '(a)') '<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>'
+      write (unit, '(a)') '<Xdmf xmlns:xi="http://www.w3.org/2001/XInclude" Version="2.0">'
     else
-      write (unit, '(a)') '  <Grid Name="bodies" GridType="Collection" CollectionType="Temporal">'
+      ! No DOCTYPE in a block: libxml2 would look for Xdmf.dtd beside it when including it.
+      write (unit, '(a)') '<Xdmf Version="2.0">'
     end if
-    do i = 1, self%n_frames
-      h5 = frame_file_name(i - 1)
-      nb = str(self%frame_sizes(1, i))
-      np = str(self%frame_sizes(2, i))
-      nt = str(self%frame_sizes(3, i))
-      write (unit, '(a)') '   <Grid Name="frame_'//str(i - 1)//'" GridType="Uniform">'
-      write (unit, '(a)') '    <Time Value="'//real_text(self%frame_times(i))//'"/>'
-      if (surfaces) then
-        write (unit, '(a)') '    <Topology TopologyType="Triangle" NumberOfElements="'//nt//'">'
-        call data_item(unit, nt//' 3', 'Int', h5//':/surface/triangles')
-        write (unit, '(a)') '    </Topology>'
-        write (unit, '(a)') '    <Geometry GeometryType="XYZ">'
-        call data_item(unit, np//' 3', 'Float', h5//':/surface/points')
-        write (unit, '(a)') '    </Geometry>'
-        call attribute(unit, 'body_id', 'Scalar', 'Cell', nt, 'Int', h5//':/surface/body_id')
-        call attribute(unit, 'velocity', 'Vector', 'Node', np//' 3', 'Float', h5//':/surface/velocity')
-      else
-        ! Polyvertex needs explicit connectivity, or ParaView shows no cells.
-        write (unit, '(a)') '    <Topology TopologyType="Polyvertex" NumberOfElements="'//nb// &
-          '" NodesPerElement="1">'
-        call data_item(unit, nb, 'Int', h5//':/bodies/vertex')
-        write (unit, '(a)') '    </Topology>'
-        write (unit, '(a)') '    <Geometry GeometryType="XYZ">'
-        call data_item(unit, nb//' 3', 'Float', h5//':/bodies/position')
-        write (unit, '(a)') '    </Geometry>'
-        call attribute(unit, 'gid', 'Scalar', 'Node', nb, 'Int', h5//':/bodies/gid')
-        call attribute(unit, 'shape_id', 'Scalar', 'Node', nb, 'Int4', h5//':/bodies/shape_id')
-        call attribute(unit, 'group_id', 'Scalar', 'Node', nb, 'Int4', h5//':/bodies/group_id')
-        call attribute(unit, 'velocity', 'Vector', 'Node', nb//' 3', 'Float', h5//':/bodies/velocity')
-        call attribute(unit, 'angular_velocity', 'Vector', 'Node', nb//' 3', 'Float', &
-                       h5//':/bodies/angular_velocity')
-        ! 'Vector' with 4 columns: VTK's XDMF reader then makes a 4-component array per body
-        ! ('Matrix' would give one tuple of 4n values).
-        call attribute(unit, 'orientation', 'Vector', 'Node', nb//' 4', 'Float', h5//':/bodies/orientation')
-      end if
-      write (unit, '(a)') '   </Grid>'
-    end do
+    write (unit, '(a)') ' <Domain>'
+    write (unit, '(a)') '  <Grid Name="'//name//'" GridType="Collection" CollectionType="Temporal">'
+  end subroutine open_xdmf
+
+  !> Closes what open_xdmf opened and publishes the file under `path` (rename).
+  subroutine close_xdmf(unit, path, err)
+    integer, intent(in) :: unit
+    character(len=*), intent(in) :: path
+    type(error_t), intent(inout) :: err
+    integer :: status
     write (unit, '(a)') '  </Grid>'
     write (unit, '(a)') ' </Domain>'
     write (unit, '(a)') '</Xdmf>'
     close (unit, iostat=status)
     if (status /= 0) then
-      call err%set(ERR_IO, "cannot write '"//temporary//"'")
+      call err%set(ERR_IO, "cannot write '"//path//".tmp'")
       return
     end if
-    call rename_file(temporary, path, err)
-  end subroutine write_index
+    call rename_file(path//'.tmp', path, err)
+  end subroutine close_xdmf
+
+  !> The uniform grid of frame i (1-based) for index `kind` ('surfaces' or 'bodies').
+  subroutine write_grid(self, unit, kind, i)
+    type(frame_writer_t), intent(in) :: self
+    integer, intent(in) :: unit, i
+    character(len=*), intent(in) :: kind
+    character(len=:), allocatable :: h5, nb, np, nt
+    h5 = frame_file_name(i - 1)
+    nb = str(self%frame_sizes(1, i))
+    np = str(self%frame_sizes(2, i))
+    nt = str(self%frame_sizes(3, i))
+    write (unit, '(a)') '   <Grid Name="frame_'//str(i - 1)//'" GridType="Uniform">'
+    write (unit, '(a)') '    <Time Value="'//real_text(self%frame_times(i))//'"/>'
+    if (kind == 'surfaces') then
+      write (unit, '(a)') '    <Topology TopologyType="Triangle" NumberOfElements="'//nt//'">'
+      call data_item(unit, nt//' 3', 'Int', h5//':/surface/triangles')
+      write (unit, '(a)') '    </Topology>'
+      write (unit, '(a)') '    <Geometry GeometryType="XYZ">'
+      call data_item(unit, np//' 3', 'Float', h5//':/surface/points')
+      write (unit, '(a)') '    </Geometry>'
+      call attribute(unit, 'body_id', 'Scalar', 'Cell', nt, 'Int', h5//':/surface/body_id')
+      call attribute(unit, 'velocity', 'Vector', 'Node', np//' 3', 'Float', h5//':/surface/velocity')
+    else
+      ! Polyvertex needs explicit connectivity, or ParaView shows no cells.
+      write (unit, '(a)') '    <Topology TopologyType="Polyvertex" NumberOfElements="'//nb// &
+        '" NodesPerElement="1">'
+      call data_item(unit, nb, 'Int', h5//':/bodies/vertex')
+      write (unit, '(a)') '    </Topology>'
+      write (unit, '(a)') '    <Geometry GeometryType="XYZ">'
+      call data_item(unit, nb//' 3', 'Float', h5//':/bodies/position')
+      write (unit, '(a)') '    </Geometry>'
+      call attribute(unit, 'gid', 'Scalar', 'Node', nb, 'Int', h5//':/bodies/gid')
+      call attribute(unit, 'shape_id', 'Scalar', 'Node', nb, 'Int4', h5//':/bodies/shape_id')
+      call attribute(unit, 'group_id', 'Scalar', 'Node', nb, 'Int4', h5//':/bodies/group_id')
+      call attribute(unit, 'velocity', 'Vector', 'Node', nb//' 3', 'Float', h5//':/bodies/velocity')
+      call attribute(unit, 'angular_velocity', 'Vector', 'Node', nb//' 3', 'Float', &
+                     h5//':/bodies/angular_velocity')
+      ! 'Vector' with 4 columns: VTK's XDMF reader then makes a 4-component array per body
+      ! ('Matrix' would give one tuple of 4n values).
+      call attribute(unit, 'orientation', 'Vector', 'Node', nb//' 4', 'Float', h5//':/bodies/orientation')
+    end if
+    write (unit, '(a)') '   </Grid>'
+  end subroutine write_grid
 
   !> number: 'Float' (f64), 'Int' (i64) or 'Int4' (i32), as written by h5_utils.
   subroutine data_item(unit, dims, number, source)

@@ -1,6 +1,7 @@
 !> Thin layer over the HDF5 Fortran API shared by frame_writer and checkpoint_io: parallel
-!> file create/open (MPI-IO driver on the run's communicator), row-block datasets written
-!> collectively (each rank its own rows at an offset), whole-dataset reads, attributes.
+!> file create/open (MPI-IO driver on the run's communicator; on one rank the default POSIX
+!> driver), row-block datasets written collectively (each rank its own rows at an offset),
+!> whole-dataset reads, attributes.
 !>
 !> Conventions:
 !>  - A Fortran array (n_cols, n) is the HDF5 dataset (n, n_cols) (HDF5 reverses dimensions):
@@ -14,7 +15,8 @@ module h5_utils
   use, intrinsic :: iso_c_binding, only: c_ptr, c_loc, c_char, c_null_char
   use hdf5, only: hid_t, hsize_t, size_t, h5open_f, h5eset_auto_f, &
                   h5pcreate_f, h5pclose_f, h5pset_fapl_mpio_f, h5pset_dxpl_mpio_f, &
-                  H5P_FILE_ACCESS_F, H5P_DATASET_XFER_F, H5FD_MPIO_COLLECTIVE_F, &
+                  H5P_FILE_ACCESS_F, H5P_DATASET_XFER_F, H5FD_MPIO_COLLECTIVE_F, H5FD_MPIO_F, &
+                  h5pget_driver_f, h5iget_file_id_f, h5fget_access_plist_f, &
                   h5fcreate_f, h5fopen_f, h5fclose_f, H5F_ACC_TRUNC_F, H5F_ACC_RDONLY_F, &
                   h5gcreate_f, h5gopen_f, h5gclose_f, h5lexists_f, &
                   h5screate_simple_f, h5screate_f, h5sclose_f, h5sselect_hyperslab_f, h5sselect_none_f, &
@@ -136,7 +138,10 @@ contains
     type(error_t), intent(inout) :: err
     integer :: status
     call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, status)
-    if (status == 0) call h5pset_fapl_mpio_f(fapl, par%comm_handle(), MPI_INFO_NULL%MPI_VAL, status)
+    ! One rank: HDF5's default POSIX driver. MPI-IO (Open MPI's ompio) would set up shared-
+    ! memory files and a semaphore for every file, about 4 ms a frame for nothing to share.
+    if (status == 0 .and. par%n_ranks > 1) &
+      call h5pset_fapl_mpio_f(fapl, par%comm_handle(), MPI_INFO_NULL%MPI_VAL, status)
     if (status /= 0) call err%set(ERR_IO, 'cannot set up MPI-IO file access for HDF5')
   end subroutine mpio_fapl
 
@@ -209,6 +214,24 @@ contains
   ! ---------------------------------------------------------------- datasets: writing
 
   !> The core of every dataset write: creates dataset `name` of n_total rows of n_cols
+  !> Whether the file holding loc was opened with the MPI-IO driver (several ranks) rather
+  !> than the default one (one rank; collective transfers exist only with MPI-IO).
+  logical function uses_mpio(loc)
+    integer(hid_t), intent(in) :: loc
+    integer(hid_t) :: file_id, fapl, driver
+    integer :: status
+    uses_mpio = .false.
+    call h5iget_file_id_f(loc, file_id, status)
+    if (status /= 0) return
+    call h5fget_access_plist_f(file_id, fapl, status)
+    if (status == 0) then
+      call h5pget_driver_f(fapl, driver, status)
+      uses_mpio = status == 0 .and. driver == H5FD_MPIO_F
+      call h5pclose_f(fapl, status)
+    end if
+    call h5fclose_f(file_id, status)
+  end function uses_mpio
+
   !> values (rank 1 when n_cols is 0) and writes this rank's n_local rows, starting at row
   !> `offset`, from buffer, in one collective transfer.
   subroutine write_block(loc, name, file_type, mem_type, n_cols, n_total, offset, n_local, buffer, err)
@@ -257,7 +280,7 @@ contains
     ! knows n_total, so all skip together.
     if (status == 0 .and. n_total > 0) then
       call h5pcreate_f(H5P_DATASET_XFER_F, xfer, status)
-      if (status == 0) call h5pset_dxpl_mpio_f(xfer, H5FD_MPIO_COLLECTIVE_F, status)
+      if (status == 0 .and. uses_mpio(loc)) call h5pset_dxpl_mpio_f(xfer, H5FD_MPIO_COLLECTIVE_F, status)
       if (status == 0) call h5dwrite_f(dset, mem_type, buffer, status, mem_space_id=mem_space, &
                                        file_space_id=file_space, xfer_prp=xfer)
     end if

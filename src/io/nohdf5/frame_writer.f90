@@ -20,6 +20,8 @@ module frame_writer
     integer :: n_frames = 0
     real(dp), allocatable :: frame_times(:)
     integer(i8), allocatable :: frame_sizes(:, :)
+    integer :: block_frames = 32
+    integer :: n_blocks_written = 0
   contains
 
   ! The conditions below only touch every argument (no unused-argument warnings); they
