@@ -17,7 +17,7 @@
 !> everything cost a grid entry and no closest-point query.
 module collision_stage
   use kinds, only: dp, i8
-  use error_status, only: error_t, ERR_NUMERIC
+  use error_status, only: error_t, ERR_NUMERIC, ERR_INPUT
   use string_utils, only: str
   use input_config, only: deck_t, integrator_config_t
   use shape, only: shape_library_t, SHAPE_SPHERE
@@ -46,6 +46,7 @@ module collision_stage
     integer(i8) :: contacts = 0                !< contact points handed to the impulse solver
     integer(i8) :: capped = 0                  !< pairs stopped by the iteration cap (safe, short)
     integer(i8) :: corrections = 0             !< distance corrections (pairs pushed apart)
+    integer(i8) :: corrections_capped = 0      !< corrections cut to half the band per body
     integer(i8) :: plane_skips = 0             !< pairs advanced from a second-order safe time (plane_bound)
     real(dp) :: min_separation = huge(1.0_dp)  !< smallest gap ever computed [m]
   end type collision_stats_t
@@ -165,6 +166,15 @@ contains
     self%resting%velocity_tolerance = self%velocity_tolerance
     call choose_box_size(extent, 1.0_dp, self%box_size, err)
     if (err%failed()) return
+    ! Each step keeps every body's travel plus the contact band within one grid box
+    ! (limit_step): a band of half a box or more leaves no room to move.
+    if (self%target + self%tolerance >= 0.5_dp*self%box_size) then
+      call err%set(ERR_INPUT, deck%path//': &contact: min_separation = '//str(self%target, '(es10.3)')// &
+                   ' m is too large for the smallest moving body (extent '//str(smallest, '(es10.3)')// &
+                   ' m): it must stay below '//str(0.5_dp*self%box_size/1.1_dp, '(es10.3)')// &
+                   ' m, and well below that for accurate contact')
+      return
+    end if
     call self%grid%init(self%box_size, err)
   end subroutine stage_init
 
@@ -307,6 +317,10 @@ contains
   !> by that much), so the result holds by construction; every pair of a moved body is then
   !> measured again, and if one still came closer than allowed (a non-convex pair, or
   !> an unconverged solve) the move is halved, up to four times, or not made.
+  !> No body moves more than half the band, (target + tolerance)/2, in one step: pairs
+  !> that prepare found far (or never listed) were at least that much beyond reach, so
+  !> they stay out of the band (one low pair never needs more, since gaps stay above
+  !> target/2; a chain of low pairs opens over several steps).
   subroutine stage_correct_distances(self, bodies, shapes, flight)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
@@ -318,7 +332,7 @@ contains
     real(dp), allocatable :: lam(:), bound(:), d(:, :), x_saved(:, :), gap_new(:), normal_new(:, :)
     logical, allocatable :: active(:), moves(:)
     integer :: n, k, i, j, sweep, halving
-    real(dp) :: aim, weight, residual, dl, worst, alpha
+    real(dp) :: aim, weight, residual, dl, worst, alpha, largest
     logical :: ok
     n = bodies%n_owned + bodies%n_ghost
     if (self%n_pairs == 0) return
@@ -360,7 +374,9 @@ contains
     if (.not. any(moves)) return
     x_saved = bodies%x(:, 1:n)
     allocate (gap_new(self%n_pairs), normal_new(3, self%n_pairs))
-    alpha = 1.0_dp
+    largest = maxval(norm2(d, dim=1), mask=moves)
+    alpha = min(1.0_dp, 0.5_dp*(self%target + self%tolerance)/largest)
+    if (alpha < 1.0_dp) self%stats%corrections_capped = self%stats%corrections_capped + 1
     do halving = 0, max_halvings
       do i = 1, n
         if (moves(i)) bodies%x(:, i) = x_saved(:, i) + alpha*d(:, i)
@@ -376,7 +392,9 @@ contains
         call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
                       gap_new(k), normal_new(:, k))
         self%stats%pair_tests = self%stats%pair_tests + 1
-        if (gap_new(k) < min(self%pair_gap0(k), bound(k)) - 1.0e-3_dp*self%target) then
+        ! (never below the floor target/2, which the gap was above)
+        if (gap_new(k) < max(min(self%pair_gap0(k), bound(k)) - 1.0e-3_dp*self%target, &
+                             min(self%pair_gap0(k), 0.5_dp*self%target))) then
           ok = .false.
           exit
         end if

@@ -489,7 +489,8 @@ contains
       self%flight%iterations_max, '), not converged: ', self%flight%not_converged
     write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  contact events       ', self%collisions%stats%events, ' (', &
       self%collisions%stats%contacts, ' contact points, ', self%collisions%impulses%groups, ' impulse groups, ', &
-      self%collisions%stats%corrections, ' distance corrections)'
+      self%collisions%stats%corrections, ' distance corrections, '// &
+      str(self%collisions%stats%corrections_capped)//' of them cut to half the band)'
     write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', self%collisions%stats%pair_tests, ' pair queries, ', &
       self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, &
       ' capped, '//str(self%collisions%stats%plane_skips)//' started from a second-order safe time)'

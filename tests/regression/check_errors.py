@@ -48,6 +48,11 @@ with open(os.path.join(work, "truncated.h5"), "wb") as f:
 expect_error([ok_deck, "--restart", "truncated.h5"], ["truncated.h5"], "truncated checkpoint")
 expect_error([ok_deck, "--restart", "nowhere.h5"], ["nowhere.h5"], "missing checkpoint")
 expect_error([ok_deck, "--restart"], ["--restart needs"], "--restart without a file")
+# A minimum separation as large as the smallest moving body leaves no room to move: refused,
+# naming the deck, the group and the variable, with the largest value that would do.
+expect_error([deck("separation.nml", good_run + "&contact min_separation = 0.1 /\n"
+                   "&body name = 'ball', shape = 'sphere', radius = 0.1, mass = 1.0 /\n")],
+             ["separation.nml", "&contact", "min_separation", "too large", "below"], "min_separation of a body size")
 # Bodies overlapping at the start are refused, naming both (closest-point overlap test).
 expect_error([deck("spheres.nml", good_run + "&body name = 'a', shape = 'sphere', radius = 1.0, mass = 1.0 /\n"
                    "&body name = 'b', shape = 'sphere', radius = 1.0, mass = 1.0, position = 1.5, 0, 0 /\n")],

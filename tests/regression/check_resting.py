@@ -22,8 +22,9 @@
                   settling after 3 s, no gap ever below min_separation/2 (every case checks
                   that from the summary)
   correction      two cubes stacked on a floor with both gaps at 0.6 min_separation: the
-                  first step opens both to the target (distance correction), no lateral
-                  motion, no velocity, one correction moving both
+                  first step opens both above the trigger (distance correction), the upper
+                  cube moved by exactly half the band, no lateral motion, no velocity, one
+                  correction moving both
   pile            1000 cubes, 1000 tetrahedra or 200 L-prisms poured into a box (pile_*.nml):
                   no overlap at any frame, no body centre ever beyond the walls, all in the
                   box at the end, kinetic energy at the end < 1e-6 of the energy released, no
@@ -177,17 +178,26 @@ elif case == "correction":
     gap_cubes = z[:, 1] - z[:, 0] - 2 * half
     print(f"correction: gaps at the start {gap_floor[0]:.3e}, {gap_cubes[0]:.3e} m; at the end {gap_floor[-1]:.4e}, "
           f"{gap_cubes[-1]:.4e} m")
-    # The correction aims at 1.05e-5 m; the contact pass then holds the cubes still (a
-    # resting contact only settles towards the floor, half the separation, never lower).
+    # The correction aims at 1.05e-5 m: the lower cube 0.45e-5 m up, the upper one 0.9e-5 m.
+    # No body may move more than half the band, (1e-5 + 1e-6)/2 = 0.55e-5 m, in a step (pairs
+    # the candidate search found far stay out of the band), so both moves are scaled by
+    # 0.55/0.9: the upper cube 0.55e-5 m, the lower 0.275e-5 m, both gaps 0.875e-5 m, above
+    # the trigger 0.75e-5 m, so no more corrections. The 1% allows for the projected Gauss-
+    # Seidel solve's residual (1e-3 of the target); without the limit both gaps open to 1.05e-5.
     for name, g in (("floor", gap_floor), ("cubes", gap_cubes)):
-        c.check(0.95 * delta < g[1] < 1.1 * delta, f"{name} gap opened to the target at the first frame: {g[1]:.4e} m")
-        c.check(float(np.min(g[1:])) > 0.9 * delta, f"{name} gap stays open: {np.min(g[1:]):.4e} m")
+        c.check(abs(g[1] - 0.875 * delta) < 0.01 * delta,
+                f"{name} gap opened to 0.875 min_separation at the first frame (moves limited): {g[1]:.4e} m")
+        c.check(float(np.min(g[1:])) > 0.75 * delta, f"{name} gap stays above the trigger: {np.min(g[1:]):.4e} m")
+    rise = float(pos[1, 2, 2] - pos[0, 2, 2])
+    c.check(abs(rise - 0.55e-5) < 1e-12, f"the upper cube moved by half the band, 0.55e-5 m: {rise:.6e} m")
     # positions only: no lateral motion, no velocity given
     c.check(float(np.max(np.abs(pos[:, 1:, :2] - pos[0, 1:, :2]))) < 1e-12, "no lateral motion")
     c.check(float(np.max(np.abs(vel[-1, 1:]))) < 1e-9, f"no velocity given: {np.max(np.abs(vel[-1, 1:])):.2e} m/s")
     summary = [line for line in proc.stdout.splitlines() if "distance corrections" in line]
     moved = int(re.search(r"(\d+) distance corrections", summary[0]).group(1)) if summary else -1
     c.check(moved == 2, f"one correction moving the two cubes: {moved} body moves")
+    cut = int(re.search(r"(\d+) of them cut", summary[0]).group(1)) if summary else -1
+    c.check(cut == 1, f"that correction was cut to half the band: {cut}")
 elif case == "pile":
     # A 1000-body pile poured into an open-top box (tools/bench_resting.py, pile_*.nml),
     # bodies 1-5 static (floor, four walls). The deck turns on check_overlaps: the run itself
