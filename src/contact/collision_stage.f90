@@ -872,8 +872,8 @@ contains
   !> The contact pass's contact points, from the step's candidate pairs (prepare) into
   !> self%contacts(1:n_contacts), with their keys and candidate pairs: every pair within the
   !> contact band, and the inelastic pairs that can reach it within the step h as
-  !> speculative contacts (allowed_approach: the speed that closes the gap to the target in
-  !> the step; every contact point of such a pair uses the pair's gap, the smallest).
+  !> speculative contacts (allowed_approach: the speed that closes each contact point's own
+  !> feature gap to target + tolerance in the step).
   subroutine pass_contacts(self, bodies, shapes, h, n_contacts)
     type(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(in) :: bodies
@@ -1089,9 +1089,6 @@ contains
     end if
   end subroutine stage_resolve
 
-  !> The bound's inputs: velocities and accelerations at the step's start and angular
-  !> speed bound times the largest radius (zero for analytic spheres: turning moves none of
-  !> their surface).
   !> Candidate pairs from one ring of a fresh grid and every contact point within the
   !> contact band, into self%contacts(1:n_contacts). Sleeping islands a moving body touches
   !> wake, and the contacts are gathered again with them awake (their pairs with each other
@@ -1165,6 +1162,9 @@ contains
     call self%sleep%wake_all(bodies, flight)
   end subroutine stage_wake_all
 
+  !> The bound's inputs: velocities and accelerations at the step's start and angular
+  !> speed bound times the largest radius (zero for analytic spheres: turning moves none of
+  !> their surface).
   function pair_motion(shapes, bodies, flight, i, j, gravity) result(motion)
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies

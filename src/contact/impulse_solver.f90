@@ -38,9 +38,10 @@ module impulse_solver
     real(dp) :: restitution = 0.0_dp  !< e of this pair (0 below the rest speed; the group uses
                                       !< the smallest over its approaching contacts)
     real(dp) :: friction = 0.0_dp     !< Coulomb mu of this pair
-    !> A speculative contact (the contact pass: a pair not yet in the contact band that can
-    !> reach it within the step) may keep approaching at up to this speed, the speed that
-    !> closes its gap to the target in exactly the step; 0 for contacts in the band [m/s].
+    !> Contact pass, inelastic pairs: this contact may keep approaching at up to this speed,
+    !> the speed that closes its own feature gap to target + tolerance in exactly the step
+    !> (speculative contacts, not yet in the band; also contacts in the band above that
+    !> height); 0 at or below it, and for elastic pairs [m/s].
     real(dp) :: allowed_approach = 0.0_dp
     real(dp) :: gap = 0.0_dp          !< distance of the two features when found [m]
   end type contact_t

@@ -341,8 +341,9 @@ contains
   !> slower than stick_speed, the group is solved once more with every loaded contact held
   !> still: the impulses of those contacts are sought as non-negative combinations of the
   !> edges of a pyramid inscribed in each Coulomb cone (n + mu (cos a t1 + sin a t2), eight
-  !> angles a), and non-negative least squares (Lawson-Hanson) gives the velocities closest,
-  !> in the mass norm, to those the group would have without them. If they leave every
+  !> angles a), and non-negative least squares (Lawson-Hanson) chooses them so that the
+  !> group's velocities, from what they would be without these impulses (vt_base), come as
+  !> close to rest as they can in the mass norm: min |vt_base + E beta|. If they leave every
   !> loaded contact still (to the velocity tolerance) and no other contact of the group
   !> approaching, they are a solution of the same Coulomb problem, the one in which
   !> everything sticks, and replace the iterative one; otherwise nothing changes (a contact
