@@ -78,7 +78,7 @@ contains
     logical :: apply_warm
     real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), lam(:, :), v_prev(:, :), w_prev(:, :), reach(:)
     real(dp), allocatable :: turn_a(:, :, :), turn_b(:, :, :), arm_a(:, :), arm_b(:, :)
-    integer, allocatable :: members(:), slot(:)
+    integer, allocatable :: members(:), side(:, :)
     integer :: n_members, b
     real(dp) :: k(3, 3), u(3), un, ut(2), dl(3), new_t(2), limit, change, p(3)
     integer :: m, c, sweep
@@ -122,13 +122,13 @@ contains
     ! The bodies of the group (moving ones), whose velocity changes per sweep end the loop:
     ! with more contact points than the impulses need (four corners of a face), impulses
     ! can drift between points while the velocities have long converged.
-    call group_members(bodies, contacts, members, slot, n_members)
+    call group_members(bodies, contacts, members, n_members, side)
     ! reach: the farthest contact point of a body's contacts from its centre
     allocate (v_prev(3, n_members), w_prev(3, n_members), reach(n_members))
     reach = 0.0_dp
     do c = 1, m
-      if (slot(contacts(c)%a) > 0) reach(slot(contacts(c)%a)) = max(reach(slot(contacts(c)%a)), norm2(arm_a(:, c)))
-      if (slot(contacts(c)%b) > 0) reach(slot(contacts(c)%b)) = max(reach(slot(contacts(c)%b)), norm2(arm_b(:, c)))
+      if (side(1, c) > 0) reach(side(1, c)) = max(reach(side(1, c)), norm2(arm_a(:, c)))
+      if (side(2, c) > 0) reach(side(2, c)) = max(reach(side(2, c)), norm2(arm_b(:, c)))
     end do
     do sweep = 1, max_sweeps
       change = 0.0_dp

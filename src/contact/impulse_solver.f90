@@ -23,10 +23,11 @@ module impulse_solver
   use quaternion, only: quat_rotate, quat_rotate_inverse
   use body_state, only: bodies_t
   use nnls, only: solve_nnls
+  use sorting, only: sort_index_real
   implicit none
   private
   public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, find_root, unite, scaled_velocity, &
-            set_scaled_velocity, scaled_row, group_members
+            set_scaled_velocity, scaled_row, group_members, contact_groups
 
   !> One contact point between bodies a and b (indices into bodies_t, both valid; either
   !> may be fixed).
@@ -95,41 +96,17 @@ contains
     integer, intent(in), optional :: max_group
     logical, intent(out), optional :: large(:)
     real(dp), allocatable :: group_impulse(:)
-    integer, allocatable :: in_group(:)
-    integer, allocatable :: parent(:), group_of_contact(:)
-    integer :: i, root, n_bodies, g
-    logical, allocatable :: done(:)
+    integer, allocatable :: group_start(:), group_list(:)
+    integer :: n_groups, k, g
 
-    n_bodies = bodies%n_owned + bodies%n_ghost
-    allocate (parent(n_bodies))
-    parent = [(i, i=1, n_bodies)]
-    do i = 1, size(contacts)
-      if (moving(bodies, contacts(i)%a) .and. moving(bodies, contacts(i)%b)) &
-        call unite(parent, contacts(i)%a, contacts(i)%b)
-    end do
-    allocate (group_of_contact(size(contacts)), done(size(contacts)))
-    do i = 1, size(contacts)
-      if (moving(bodies, contacts(i)%a)) then
-        group_of_contact(i) = find_root(parent, contacts(i)%a)
-      else
-        group_of_contact(i) = find_root(parent, contacts(i)%b)
-      end if
-    end do
-    done = .false.
+    call contact_groups(bodies, contacts, group_start, group_list, n_groups)
     if (present(normal_impulse)) normal_impulse = 0.0_dp
     if (present(large)) large = .false.
-    do i = 1, size(contacts)
-      if (done(i)) cycle
-      root = group_of_contact(i)
-      if (.not. moving(bodies, contacts(i)%a) .and. .not. moving(bodies, contacts(i)%b)) then
-        done(i) = .true.
-        cycle
-      end if
-      in_group = pack([(g, g=1, size(contacts))], group_of_contact == root)
+    do k = 1, n_groups
+      associate (in_group => group_list(group_start(k):group_start(k + 1) - 1))
       if (present(max_group) .and. present(large)) then
         if (size(in_group) > max_group) then
           large(in_group) = .true.
-          done(in_group) = .true.
           cycle
         end if
       end if
@@ -144,31 +121,108 @@ contains
         if (present(normal_impulse)) normal_impulse(in_group) = group_impulse
         deallocate (group_impulse)
       end if
-      do g = i, size(contacts)
-        if (group_of_contact(g) == root) done(g) = .true.
-      end do
+      end associate
     end do
   end subroutine resolve_impacts
 
-  !> The moving bodies of a set of contacts, each once, in order of first appearance:
-  !> members(1:n_members), and slot(i) = the position of body i there (0: fixed or absent).
-  pure subroutine group_members(bodies, contacts, members, slot, n_members)
+  !> The groups of a set of contacts: connected components through moving bodies (a fixed
+  !> body connects nothing; a contact between two fixed bodies is in no group). Group k holds
+  !> contacts group_list(group_start(k):group_start(k+1)-1), in increasing index; groups come
+  !> in the order of their first contact. Cost O(m log m) for m contacts, whatever the size
+  !> of the scene (a floor under 10,000 separate boxes is 10,000 groups per step).
+  subroutine contact_groups(bodies, contacts, group_start, group_list, n_groups)
     type(bodies_t), intent(in) :: bodies
     type(contact_t), intent(in) :: contacts(:)
-    integer, allocatable, intent(out) :: members(:), slot(:)
+    integer, allocatable, intent(out) :: group_start(:)   !< (n_groups + 1)
+    integer, allocatable, intent(out) :: group_list(:)    !< contact indices, group by group
+    integer, intent(out) :: n_groups
+    integer, allocatable :: members(:), side(:, :), parent(:), group_of(:), size_of(:), fill(:)
+    integer :: n_members, c, m, root
+    m = size(contacts)
+    call group_members(bodies, contacts, members, n_members, side)
+    ! union-find over the local numbering of the moving bodies
+    allocate (parent(n_members))
+    parent = [(c, c=1, n_members)]
+    do c = 1, m
+      if (side(1, c) > 0 .and. side(2, c) > 0) call unite(parent, side(1, c), side(2, c))
+    end do
+    ! groups numbered in the order of their first contact
+    allocate (group_of(m), size_of(n_members + 1), fill(n_members))
+    fill = 0          ! group number of each root, once seen
+    size_of = 0
+    n_groups = 0
+    do c = 1, m
+      group_of(c) = 0
+      if (side(1, c) == 0 .and. side(2, c) == 0) cycle
+      root = find_root(parent, max(side(1, c), side(2, c)))
+      if (fill(root) == 0) then
+        n_groups = n_groups + 1
+        fill(root) = n_groups
+      end if
+      group_of(c) = fill(root)
+      size_of(group_of(c)) = size_of(group_of(c)) + 1
+    end do
+    allocate (group_start(n_groups + 1), group_list(count(group_of > 0)))
+    group_start(1) = 1
+    do c = 1, n_groups
+      group_start(c + 1) = group_start(c) + size_of(c)
+    end do
+    fill(1:n_groups) = group_start(1:n_groups)
+    do c = 1, m
+      if (group_of(c) == 0) cycle
+      group_list(fill(group_of(c))) = c
+      fill(group_of(c)) = fill(group_of(c)) + 1
+    end do
+  end subroutine contact_groups
+
+  !> The moving bodies of a set of contacts, each once, in order of first appearance
+  !> (members(1:n_members), indices into bodies), and side(1:2, c): the position in members
+  !> of contact c's body a and body b (0 for a fixed body). Sorting, not a table the size of
+  !> the scene: O(m log m) for m contacts (called once per contact group and step).
+  subroutine group_members(bodies, contacts, members, n_members, side)
+    type(bodies_t), intent(in) :: bodies
+    type(contact_t), intent(in) :: contacts(:)
+    integer, allocatable, intent(out) :: members(:)
     integer, intent(out) :: n_members
-    integer :: c, side, i
-    allocate (members(2*size(contacts)), slot(size(bodies%fixed)))
-    slot = 0
-    n_members = 0
-    do c = 1, size(contacts)
-      do side = 1, 2
-        i = merge(contacts(c)%a, contacts(c)%b, side == 1)
-        if (bodies%fixed(i) .or. slot(i) > 0) cycle
-        n_members = n_members + 1
-        members(n_members) = i
-        slot(i) = n_members
-      end do
+    integer, allocatable, intent(out) :: side(:, :)
+    integer, allocatable :: order(:), first(:), run_of(:)
+    real(dp), allocatable :: ids(:)
+    integer :: m, k, p, n_runs
+    m = size(contacts)
+    allocate (side(2, m), ids(2*m))
+    side = 0
+    ! the sides in order a1, b1, a2, b2, ...; fixed bodies sort first, as 0
+    do k = 1, m
+      ids(2*k - 1) = merge(real(contacts(k)%a, dp), 0.0_dp, moving(bodies, contacts(k)%a))
+      ids(2*k) = merge(real(contacts(k)%b, dp), 0.0_dp, moving(bodies, contacts(k)%b))
+    end do
+    call sort_index_real(ids, order)
+    ! runs of one body; the sort is stable, so a run's first entry is its first appearance
+    allocate (first(2*m), run_of(2*m))
+    n_runs = 0
+    do k = 1, 2*m
+      p = order(k)
+      if (ids(p) == 0.0_dp) cycle
+      if (k == 1) then
+        n_runs = n_runs + 1
+        first(n_runs) = p
+      else if (ids(order(k - 1)) /= ids(p)) then
+        n_runs = n_runs + 1
+        first(n_runs) = p
+      end if
+      run_of(p) = n_runs
+    end do
+    ! members in order of first appearance
+    call sort_index_real(real(first(1:n_runs), dp), order)
+    n_members = n_runs
+    allocate (members(n_members))
+    do k = 1, n_members
+      members(k) = nint(ids(first(order(k))))
+      first(order(k)) = k          ! a run's position in members, from here on
+    end do
+    do p = 1, 2*m
+      if (ids(p) == 0.0_dp) cycle
+      side(2 - mod(p, 2), (p + 1)/2) = first(run_of(p))
     end do
   end subroutine group_members
 
@@ -212,7 +266,7 @@ contains
     type(error_t), intent(inout) :: err
     real(dp), allocatable :: lambda_elastic(:)
     integer, allocatable :: active(:)
-    integer, allocatable :: members(:), slot(:)
+    integer, allocatable :: members(:), side(:, :)
     real(dp), allocatable :: e_matrix(:, :), vt0(:), vt_inelastic(:), vt_elastic(:), lambda(:), u(:)
     logical, allocatable :: approaching(:)
     integer :: n_members, m, i, k, round, iterations
@@ -221,7 +275,7 @@ contains
 
     m = size(contacts)
     ! Local numbering of the moving bodies of the group.
-    call group_members(bodies, contacts, members, slot, n_members)
+    call group_members(bodies, contacts, members, n_members, side)
     allocate (e_matrix(6*n_members, m), vt0(6*n_members))
     e_matrix = 0.0_dp
     do k = 1, n_members
@@ -229,11 +283,10 @@ contains
     end do
     ! Column i: +row for b (the normal points into b), -row for a; fixed bodies have none.
     do i = 1, m
-      associate (a => contacts(i)%a, b => contacts(i)%b)
-        if (slot(b) > 0) e_matrix(6*slot(b) - 5:6*slot(b), i) = &
-          scaled_row(bodies, b, contacts(i)%point, contacts(i)%normal)
-        if (slot(a) > 0) e_matrix(6*slot(a) - 5:6*slot(a), i) = e_matrix(6*slot(a) - 5:6*slot(a), i) - &
-                                                                scaled_row(bodies, a, contacts(i)%point, contacts(i)%normal)
+      associate (a => contacts(i)%a, b => contacts(i)%b, sa => side(1, i), sb => side(2, i))
+        if (sb > 0) e_matrix(6*sb - 5:6*sb, i) = scaled_row(bodies, b, contacts(i)%point, contacts(i)%normal)
+        if (sa > 0) e_matrix(6*sa - 5:6*sa, i) = e_matrix(6*sa - 5:6*sa, i) - &
+                                                 scaled_row(bodies, a, contacts(i)%point, contacts(i)%normal)
       end associate
     end do
 

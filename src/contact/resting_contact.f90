@@ -28,7 +28,7 @@ module resting_contact
   use error_status, only: error_t
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
-  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, find_root, unite, &
+  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, contact_groups, &
                             scaled_velocity, set_scaled_velocity, scaled_row, group_members
   use contact_solver, only: pgs_stats_t, solve_contacts_pgs, tangent_basis
   use nnls, only: solve_nnls
@@ -99,9 +99,9 @@ contains
     logical :: stuck
     integer(i8), allocatable :: new_keys(:, :)
     type(contact_t), allocatable :: group(:)
-    integer, allocatable :: parent(:), group_of(:), members(:), order(:)
-    logical, allocatable :: involved(:), done(:)
-    integer :: n_bodies, c, i, root, k, slot, n_new
+    integer, allocatable :: group_start(:), group_list(:), members(:), order(:)
+    logical, allocatable :: involved(:)
+    integer :: n_bodies, c, i, g, k, slot, n_new, n_groups
     real(dp) :: dv(3), down(3)
 
     n_bodies = bodies%n_owned + bodies%n_ghost
@@ -128,28 +128,13 @@ contains
     end do
 
     ! Groups: contacts connected through moving bodies.
-    allocate (parent(n_bodies), group_of(n), done(n))
-    parent = [(i, i=1, n_bodies)]
-    do c = 1, n
-      if (involved(contacts(c)%a) .and. involved(contacts(c)%b)) call unite(parent, contacts(c)%a, contacts(c)%b)
-    end do
-    do c = 1, n
-      if (involved(contacts(c)%a)) then
-        group_of(c) = find_root(parent, contacts(c)%a)
-      else
-        group_of(c) = find_root(parent, contacts(c)%b)
-      end if
-    end do
+    call contact_groups(bodies, contacts(1:n), group_start, group_list, n_groups)
     down = 0.0_dp
     if (norm2(gravity) > 0.0_dp) down = gravity/norm2(gravity)
     allocate (new_keys(size(keys, 1), n), new_force(3, n))
     n_new = 0
-    done = .false.
-    do c = 1, n
-      if (done(c)) cycle
-      root = group_of(c)
-      members = pack([(k, k=1, n)], group_of == root)
-      done(members) = .true.
+    do g = 1, n_groups
+      members = group_list(group_start(g):group_start(g + 1) - 1)
       if (all(contacts(members)%friction <= 0.0_dp) .and. size(members) <= self%exact_limit) then
         contacts(members)%restitution = 0.0_dp
         call resolve_impacts(bodies, contacts(members), self%velocity_tolerance, 1, self%exact, err)
@@ -358,7 +343,7 @@ contains
     logical, intent(out) :: stuck              !< held: velocities and impulses replaced
     integer, parameter :: edges = 8
     real(dp), allocatable :: e_matrix(:, :), vt(:), vt_base(:), beta(:), generator(:, :, :), vt_saved(:)
-    integer, allocatable :: slot(:), members(:), active(:)
+    integer, allocatable :: side(:, :), members(:), active(:)
     real(dp) :: t1(3), t2(3), u(3), angle, row(6)
     integer :: m, c, k, g, n_members, n_active, col, iterations
     logical :: converged
@@ -367,7 +352,7 @@ contains
     active = pack([(c, c=1, m)], hold)
     n_active = size(active)
     if (n_active == 0) return
-    call group_members(bodies, contacts, members, slot, n_members)
+    call group_members(bodies, contacts, members, n_members, side)
     ! Columns: the pyramid edges of every loaded contact, as mass-scaled velocity changes.
     allocate (e_matrix(6*n_members, edges*n_active), vt(6*n_members), generator(3, edges, n_active))
     e_matrix = 0.0_dp
@@ -376,25 +361,24 @@ contains
     end do
     vt_base = vt
     do k = 1, n_active
-      associate (con => contacts(active(k)))
+      associate (con => contacts(active(k)), sa => side(1, active(k)), sb => side(2, active(k)))
         call tangent_basis(con%normal, t1, t2)
         do g = 1, edges
           angle = 2.0_dp*acos(-1.0_dp)*real(g - 1, dp)/real(edges, dp)
           generator(:, g, k) = con%normal + con%friction*(cos(angle)*t1 + sin(angle)*t2)
           col = edges*(k - 1) + g
-          if (slot(con%b) > 0) e_matrix(6*slot(con%b) - 5:6*slot(con%b), col) = &
-            scaled_row(bodies, con%b, con%point, generator(:, g, k))
-          if (slot(con%a) > 0) e_matrix(6*slot(con%a) - 5:6*slot(con%a), col) = &
-            e_matrix(6*slot(con%a) - 5:6*slot(con%a), col) - scaled_row(bodies, con%a, con%point, generator(:, g, k))
+          if (sb > 0) e_matrix(6*sb - 5:6*sb, col) = scaled_row(bodies, con%b, con%point, generator(:, g, k))
+          if (sa > 0) e_matrix(6*sa - 5:6*sa, col) = &
+            e_matrix(6*sa - 5:6*sa, col) - scaled_row(bodies, con%a, con%point, generator(:, g, k))
         end do
         ! the velocities without this contact's impulse so far
-        if (slot(con%b) > 0) then
+        if (sb > 0) then
           row = scaled_impulse(con%b, impulse(:, active(k)))
-          vt_base(6*slot(con%b) - 5:6*slot(con%b)) = vt_base(6*slot(con%b) - 5:6*slot(con%b)) - row
+          vt_base(6*sb - 5:6*sb) = vt_base(6*sb - 5:6*sb) - row
         end if
-        if (slot(con%a) > 0) then
+        if (sa > 0) then
           row = scaled_impulse(con%a, impulse(:, active(k)))
-          vt_base(6*slot(con%a) - 5:6*slot(con%a)) = vt_base(6*slot(con%a) - 5:6*slot(con%a)) + row
+          vt_base(6*sa - 5:6*sa) = vt_base(6*sa - 5:6*sa) + row
         end if
       end associate
     end do
@@ -451,8 +435,8 @@ contains
   integer function moving_bodies(bodies, contacts) result(count_moving)
     type(bodies_t), intent(in) :: bodies
     type(contact_t), intent(in) :: contacts(:)
-    integer, allocatable :: members(:), slot(:)
-    call group_members(bodies, contacts, members, slot, count_moving)
+    integer, allocatable :: members(:), side(:, :)
+    call group_members(bodies, contacts, members, count_moving, side)
   end function moving_bodies
 
 end module resting_contact

@@ -1,7 +1,8 @@
 !> Simultaneous frictionless impulses: analytic two-body results, a box landing flat (no
 !> spurious spin), Newton's cradle (only the last ball leaves), and on random contact sets
 !> the invariants: momentum conserved, no energy gained (kept at e = 1), nothing approaching;
-!> speculative contacts (an allowed approach speed): the projection's KKT conditions.
+!> speculative contacts (an allowed approach speed): the projection's KKT conditions; contact
+!> groups and the local numbering of their bodies.
 program test_impulse_solver
   use kinds, only: dp
   use error_status, only: error_t
@@ -139,6 +140,37 @@ program test_impulse_solver
   call check(violations(2) == 0, 'speculative scenes: no contact approaches faster than allowed')
   call check(violations(3) == 0, 'speculative scenes: loaded contacts sit on their bound (complementarity)')
   call check(violations(4) == 0, 'speculative scenes: impulses push, never pull')
+
+  ! 6. Contact groups and the local numbering of their bodies (contact_groups, group_members):
+  !    bodies 1 and 8 fixed; contacts 2-3, 1-4, 5-2, 1-8 (fixed-fixed: no group), 6-7, 3-5,
+  !    4-1: groups {1, 3, 6} (bodies 2, 3, 5), {2, 7} (body 4), {5} (bodies 6, 7), in the
+  !    order of their first contact, contacts in increasing index.
+  call make_spheres(bodies, 8)
+  bodies%fixed([1, 8]) = .true.
+  block
+    integer, allocatable :: group_start(:), group_list(:), members(:), side(:, :)
+    integer :: n_groups, n_members
+    integer, parameter :: pairs(2, 7) = reshape([2, 3, 1, 4, 5, 2, 1, 8, 6, 7, 3, 5, 4, 1], [2, 7])
+    if (allocated(contacts)) deallocate (contacts)
+    allocate (contacts(7))
+    contacts%a = pairs(1, :)
+    contacts%b = pairs(2, :)
+    call contact_groups(bodies, contacts, group_start, group_list, n_groups)
+    call check(n_groups == 3, 'contact groups: three groups (the fixed-fixed contact in none)')
+    if (n_groups == 3) then
+      call check(all(group_start == [1, 4, 6, 7]), 'contact groups: sizes 3, 2, 1')
+      call check(all(group_list == [1, 3, 6, 2, 7, 5]), 'contact groups: by first contact, contacts in order')
+    end if
+    call group_members(bodies, contacts, members, n_members, side)
+    call check(n_members == 6, 'group members: six moving bodies')
+    call check(all(members(1:n_members) == [2, 3, 4, 5, 6, 7]), 'group members: in order of first appearance')
+    call check(all(side(1, :) == [1, 0, 4, 0, 5, 2, 3]) .and. all(side(2, :) == [2, 3, 1, 0, 6, 4, 0]), &
+               'group members: each contact side numbered, fixed bodies 0')
+    ! first appearance, not body order: contact 5-2 alone numbers 5 first
+    call group_members(bodies, contacts(3:3), members, n_members, side)
+    call check(n_members == 2 .and. all(members(1:2) == [5, 2]) .and. all(side(:, 1) == [1, 2]), &
+               'group members: the first side seen comes first')
+  end block
   call test_finish()
 
 contains
