@@ -37,7 +37,7 @@ module collision_stage
   use sleeping, only: sleep_t
   implicit none
   private
-  public :: collision_stage_t, collision_stats_t
+  public :: collision_stage_t, collision_stats_t, smallest_moving_extent
 
   type :: collision_stats_t
     integer(i8) :: events = 0                  !< steps that ended at a contact
@@ -104,6 +104,7 @@ module collision_stage
     procedure :: earliest_contact => stage_earliest_contact
     procedure :: resolve => stage_resolve
     procedure :: settle => stage_settle
+    procedure :: drop_events => stage_drop_events
     procedure :: wake_all => stage_wake_all
   end type collision_stage_t
 
@@ -124,22 +125,34 @@ contains
 
   !> Tolerances from the deck (auto values relative to the smallest body) and the grid box
   !> size from the smallest moving body.
-  subroutine stage_init(self, deck, shapes, bodies, err)
+  !> The largest extent (bounding-sphere diameter) of the smallest moving body this rank
+  !> owns [m], huge() if it owns none. The grid box and the auto minimum separation follow the
+  !> smallest over all ranks (the driver reduces it), so every rank uses the same ones.
+  pure real(dp) function smallest_moving_extent(shapes, bodies) result(smallest)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer :: i
+    smallest = huge(1.0_dp)
+    do i = 1, bodies%n_owned
+      if (.not. bodies%fixed(i)) smallest = min(smallest, 2.0_dp*shapes%shapes(bodies%shape_id(i))%bounding_radius)
+    end do
+  end function smallest_moving_extent
+
+  !> smallest_extent: smallest_moving_extent over every rank [m] (default: this rank's).
+  subroutine stage_init(self, deck, shapes, bodies, err, smallest_extent)
     class(collision_stage_t), intent(inout) :: self
     type(deck_t), intent(in) :: deck
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
     type(error_t), intent(inout) :: err
-    real(dp), allocatable :: extent(:)
+    real(dp), intent(in), optional :: smallest_extent
     real(dp) :: smallest
-    integer :: i
-    allocate (extent(bodies%n_owned))
-    do i = 1, bodies%n_owned
-      extent(i) = 2.0_dp*shapes%shapes(bodies%shape_id(i))%bounding_radius
-    end do
-    if (any(.not. bodies%fixed(1:bodies%n_owned))) extent = pack(extent, .not. bodies%fixed(1:bodies%n_owned))
-    if (size(extent) == 0) extent = [1.0_dp]
-    smallest = minval(extent)
+    if (present(smallest_extent)) then
+      smallest = smallest_extent
+    else
+      smallest = smallest_moving_extent(shapes, bodies)
+    end if
+    if (smallest >= huge(1.0_dp)) smallest = 1.0_dp   ! nothing moves: any box will do
     self%target = deck%contact%min_separation
     if (self%target <= 0.0_dp) self%target = 1.0e-4_dp*smallest   ! auto: docs/input.md
     ! The advancement stops within 10% of the minimum separation above it; contact points
@@ -164,7 +177,7 @@ contains
     end if
     self%settle_speed = max(self%velocity_tolerance, 1.0e-3_dp*self%rest_speed)
     self%resting%velocity_tolerance = self%velocity_tolerance
-    call choose_box_size(extent, 1.0_dp, self%box_size, err)
+    call choose_box_size([smallest], 1.0_dp, self%box_size, err)
     if (err%failed()) return
     ! Each step keeps every body's travel plus the contact band within one grid box
     ! (limit_step): a band of half a box or more leaves no room to move.
@@ -1155,6 +1168,13 @@ contains
   end subroutine stage_settle
 
   !> Every sleeping body wakes (checkpoints: a restart continues exactly).
+  !> The step ends before this rank's earliest contact (another rank's came first): no pair
+  !> of this rank is in contact at its end.
+  subroutine stage_drop_events(self)
+    class(collision_stage_t), intent(inout) :: self
+    self%n_events = 0
+  end subroutine stage_drop_events
+
   subroutine stage_wake_all(self, bodies, flight)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies

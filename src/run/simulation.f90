@@ -13,7 +13,7 @@ module simulation
   use body_builder, only: build_shapes, build_bodies, count_bodies, owned_range
   use conservation, only: system_totals_t, compute_totals
   use overlap_check, only: check_initial_overlaps
-  use collision_stage, only: collision_stage_t
+  use collision_stage, only: collision_stage_t, smallest_moving_extent
   use newmark_integrator, only: free_flight_stats_t
   use free_flight, only: free_flight_t
   use history_writer, only: history_writer_t, history_record_t, history_fresh_start
@@ -102,7 +102,10 @@ contains
       call check_overlaps(self, par, shape_of_group, err)
       if (err%failed()) return
     end if
-    call self%collisions%init(deck, self%shapes, self%bodies, err)
+    ! One grid box size and one auto minimum separation for every rank: from the smallest
+    ! moving body of all.
+    call self%collisions%init(deck, self%shapes, self%bodies, err, &
+                              smallest_extent=par%min(smallest_moving_extent(self%shapes, self%bodies)))
     if (err%failed()) return
     ! Until domain decomposition with halo exchange lands, each rank sees only its own bodies.
     if (par%n_ranks > 1 .and. par%is_root()) write (*, '(a)') &
@@ -250,7 +253,7 @@ contains
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
-    real(dp) :: h, t_end, dt_max, target, clock, time_new, h_event, h_planned
+    real(dp) :: h, t_end, dt_max, target, clock, time_new, h_event, h_planned, h_first
     logical :: hits_output, hits_checkpoint
 
     t_end = self%deck%run%t_end
@@ -265,7 +268,9 @@ contains
       end if
       ! Collisions: no body moves more than one grid box, and the step ends at the earliest
       ! time of contact.
-      h = self%collisions%limit_step(self%bodies, self%propagator, self%deck%run%gravity, h)
+      ! The step is global: the smallest over every rank's bodies (as on one rank), so a run
+      ! takes the same steps on any number of ranks.
+      h = par%min(self%collisions%limit_step(self%bodies, self%propagator, self%deck%run%gravity, h))
       ! The step's candidate pairs and their gaps, shared by the contact pass and the time
       ! of contact.
       clock = par%wtime()
@@ -280,10 +285,15 @@ contains
       if (err%failed()) return
       self%contact_pass_wall = self%contact_pass_wall + (par%wtime() - clock)
       clock = par%wtime()
-      h = self%collisions%limit_step(self%bodies, self%propagator, self%deck%run%gravity, h)
+      h = par%min(self%collisions%limit_step(self%bodies, self%propagator, self%deck%run%gravity, h))
       call self%collisions%earliest_contact(self%bodies, self%shapes, self%propagator, self%time, h, &
                                             self%deck%run%gravity, self%deck%integrator, h_event, err)
       if (err%failed()) return
+      ! The earliest contact of any rank ends everybody's step; a rank whose own contacts come
+      ! later has no event in it.
+      h_first = par%min(h_event)
+      if (h_first < h_event) call self%collisions%drop_events()
+      h_event = h_first
       self%detection_wall = self%detection_wall + (par%wtime() - clock)
       h_planned = h
       if (h_event < h) then
