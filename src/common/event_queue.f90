@@ -1,0 +1,235 @@
+!> The priority queue of the local event loop: an indexed binary min-heap of handles.
+!>
+!> Each handle (a pair slot, a body, an island: the caller's numbering, 1-based) is in the
+!> queue at most once, with a time and two integer tie-breaks (global ids), so that events
+!> at equal times are taken in an order that depends only on the bodies involved, never on
+!> where they are stored or when they were queued. Setting the time of a handle already in
+!> the queue moves it (decrease or increase key): no stale entries pile up, and a handle
+!> whose certificate changed is simply set again. O(log n) per operation.
+!>
+!> Order: (time, tie(1), tie(2), handle) lexicographically. Measured against a calendar
+!> queue in docs/architecture.md ("The queue").
+module event_queue
+  use kinds, only: dp, i8
+  implicit none
+  private
+  public :: event_queue_t
+
+  type :: event_queue_t
+    integer :: n = 0                          !< handles in the queue
+    integer, allocatable :: heap(:)           !< handles by heap position 1..n
+    integer, allocatable :: pos(:)            !< heap position of each handle, 0 if absent
+    real(dp), allocatable :: time(:)          !< per handle: its event time [s]
+    integer(i8), allocatable :: tie(:, :)     !< per handle: (2) tie-breaks
+  contains
+    procedure :: init => queue_init
+    procedure :: free => queue_free
+    procedure :: set => queue_set
+    procedure :: remove => queue_remove
+    procedure :: holds => queue_holds
+    procedure :: empty => queue_empty
+    procedure :: top => queue_top
+    procedure :: top_time => queue_top_time
+    procedure :: pop => queue_pop
+    procedure :: time_of => queue_time_of
+    procedure :: check_heap => queue_check_heap
+  end type event_queue_t
+
+contains
+
+  !> capacity: handles expected (the queue grows beyond it as needed).
+  subroutine queue_init(self, capacity)
+    class(event_queue_t), intent(inout) :: self
+    integer, intent(in) :: capacity
+    call self%free()
+    allocate (self%heap(max(capacity, 16)), self%pos(max(capacity, 16)), self%time(max(capacity, 16)), &
+              self%tie(2, max(capacity, 16)))
+    self%pos = 0
+    self%n = 0
+  end subroutine queue_init
+
+  subroutine queue_free(self)
+    class(event_queue_t), intent(inout) :: self
+    if (allocated(self%heap)) deallocate (self%heap, self%pos, self%time, self%tie)
+    self%n = 0
+  end subroutine queue_free
+
+  pure logical function queue_empty(self)
+    class(event_queue_t), intent(in) :: self
+    queue_empty = self%n == 0
+  end function queue_empty
+
+  pure logical function queue_holds(self, handle)
+    class(event_queue_t), intent(in) :: self
+    integer, intent(in) :: handle
+    queue_holds = .false.
+    if (.not. allocated(self%pos)) return
+    if (handle < 1 .or. handle > size(self%pos)) return
+    queue_holds = self%pos(handle) > 0
+  end function queue_holds
+
+  !> The handle with the earliest event (0 if empty).
+  pure integer function queue_top(self)
+    class(event_queue_t), intent(in) :: self
+    queue_top = 0
+    if (self%n > 0) queue_top = self%heap(1)
+  end function queue_top
+
+  !> The earliest event time, huge() if empty [s].
+  pure real(dp) function queue_top_time(self)
+    class(event_queue_t), intent(in) :: self
+    queue_top_time = huge(1.0_dp)
+    if (self%n > 0) queue_top_time = self%time(self%heap(1))
+  end function queue_top_time
+
+  !> The time handle is queued at, huge() if absent [s].
+  pure real(dp) function queue_time_of(self, handle)
+    class(event_queue_t), intent(in) :: self
+    integer, intent(in) :: handle
+    queue_time_of = huge(1.0_dp)
+    if (self%holds(handle)) queue_time_of = self%time(handle)
+  end function queue_time_of
+
+  !> Puts handle in the queue at time t with tie-breaks (tie1, tie2), or moves it there.
+  subroutine queue_set(self, handle, t, tie1, tie2)
+    class(event_queue_t), intent(inout) :: self
+    integer, intent(in) :: handle
+    real(dp), intent(in) :: t
+    integer(i8), intent(in) :: tie1, tie2
+    integer :: p
+    if (.not. allocated(self%heap)) call self%init(max(16, handle))
+    if (handle > size(self%pos)) call grow(self, handle)
+    p = self%pos(handle)
+    if (p == 0) then
+      if (self%n == size(self%heap)) call grow(self, size(self%pos))
+      self%n = self%n + 1
+      self%heap(self%n) = handle
+      self%pos(handle) = self%n
+      self%time(handle) = t
+      self%tie(:, handle) = [tie1, tie2]
+      call sift_up(self, self%n)
+    else
+      self%time(handle) = t
+      self%tie(:, handle) = [tie1, tie2]
+      call sift_up(self, p)
+      call sift_down(self, self%pos(handle))
+    end if
+  end subroutine queue_set
+
+  !> Takes handle out of the queue (nothing if absent).
+  subroutine queue_remove(self, handle)
+    class(event_queue_t), intent(inout) :: self
+    integer, intent(in) :: handle
+    integer :: p, last
+    if (.not. self%holds(handle)) return
+    p = self%pos(handle)
+    last = self%heap(self%n)
+    self%pos(handle) = 0
+    self%n = self%n - 1
+    if (p > self%n) return          ! it was the last one
+    self%heap(p) = last
+    self%pos(last) = p
+    call sift_up(self, p)
+    call sift_down(self, self%pos(last))
+  end subroutine queue_remove
+
+  !> Removes and returns the earliest handle (0 if empty) and its time.
+  subroutine queue_pop(self, handle, t)
+    class(event_queue_t), intent(inout) :: self
+    integer, intent(out) :: handle
+    real(dp), intent(out) :: t
+    handle = self%top()
+    t = huge(1.0_dp)
+    if (handle == 0) return
+    t = self%time(handle)
+    call self%remove(handle)
+  end subroutine queue_pop
+
+  !> The heap property and the position index hold (tests).
+  pure logical function queue_check_heap(self) result(ok)
+    class(event_queue_t), intent(in) :: self
+    integer :: p
+    ok = .true.
+    do p = 1, self%n
+      if (self%pos(self%heap(p)) /= p) ok = .false.
+      if (p > 1) then
+        if (before(self, self%heap(p), self%heap(p/2))) ok = .false.
+      end if
+    end do
+  end function queue_check_heap
+
+  pure logical function before(self, h1, h2)
+    type(event_queue_t), intent(in) :: self
+    integer, intent(in) :: h1, h2
+    if (self%time(h1) /= self%time(h2)) then
+      before = self%time(h1) < self%time(h2)
+    else if (self%tie(1, h1) /= self%tie(1, h2)) then
+      before = self%tie(1, h1) < self%tie(1, h2)
+    else if (self%tie(2, h1) /= self%tie(2, h2)) then
+      before = self%tie(2, h1) < self%tie(2, h2)
+    else
+      before = h1 < h2
+    end if
+  end function before
+
+  subroutine sift_up(self, start)
+    type(event_queue_t), intent(inout) :: self
+    integer, intent(in) :: start
+    integer :: p, parent, h
+    p = start
+    h = self%heap(p)
+    do while (p > 1)
+      parent = p/2
+      if (.not. before(self, h, self%heap(parent))) exit
+      self%heap(p) = self%heap(parent)
+      self%pos(self%heap(p)) = p
+      p = parent
+    end do
+    self%heap(p) = h
+    self%pos(h) = p
+  end subroutine sift_up
+
+  subroutine sift_down(self, start)
+    type(event_queue_t), intent(inout) :: self
+    integer, intent(in) :: start
+    integer :: p, child, h
+    p = start
+    h = self%heap(p)
+    do
+      child = 2*p
+      if (child > self%n) exit
+      if (child < self%n) then
+        if (before(self, self%heap(child + 1), self%heap(child))) child = child + 1
+      end if
+      if (.not. before(self, self%heap(child), h)) exit
+      self%heap(p) = self%heap(child)
+      self%pos(self%heap(p)) = p
+      p = child
+    end do
+    self%heap(p) = h
+    self%pos(h) = p
+  end subroutine sift_down
+
+  !> Room for handles up to at least `needed` (doubling).
+  subroutine grow(self, needed)
+    type(event_queue_t), intent(inout) :: self
+    integer, intent(in) :: needed
+    integer, allocatable :: heap(:), pos(:)
+    real(dp), allocatable :: time(:)
+    integer(i8), allocatable :: tie(:, :)
+    integer :: capacity, old
+    old = size(self%pos)
+    capacity = max(2*old, needed)
+    allocate (heap(capacity), pos(capacity), time(capacity), tie(2, capacity))
+    pos = 0
+    heap(1:self%n) = self%heap(1:self%n)
+    pos(1:old) = self%pos
+    time(1:old) = self%time
+    tie(:, 1:old) = self%tie
+    call move_alloc(heap, self%heap)
+    call move_alloc(pos, self%pos)
+    call move_alloc(time, self%time)
+    call move_alloc(tie, self%tie)
+  end subroutine grow
+
+end module event_queue

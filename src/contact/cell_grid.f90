@@ -1,0 +1,391 @@
+!> The moving broad phase of the local event loop: a bucket grid that bodies enter and
+!> leave one at a time, instead of being rebuilt every step (bucket_grid, the global loop's).
+!>
+!> A body is *placed* with a region: its bounding box grown by a margin, which it is
+!> guaranteed not to leave before its next placement (the event loop places it again when
+!> its trajectory changes or when the margin is used up: a box crossing). It is listed in
+!> every grid box its region touches; boxes are cubes of edge h (the smallest moving body's
+!> extent, as in the global loop), held in an open-addressing hash table keyed by the
+!> box's integer coordinates, each with a small list of bodies. Two bodies are candidates
+!> while their regions overlap; a body whose region spans more than max_span boxes along
+!> some axis (floors, walls, containers) is kept out of the boxes and tested by box overlap
+!> against every body that queries, so it neither floods thousands of boxes nor shrinks
+!> them. Placing and querying cost O(boxes of the region + bodies listed there).
+module cell_grid
+  use kinds, only: dp, i8
+  use error_status, only: error_t, ERR_INPUT, ERR_NUMERIC
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  implicit none
+  private
+  public :: cell_grid_t
+
+  !> |box coordinate| limit, far from int64 overflow in floor() and +-1.
+  real(dp), parameter :: MAX_BOX_COORD = 2.0_dp**60
+
+  type :: cell_t
+    integer :: n = 0
+    integer, allocatable :: ids(:)
+  end type cell_t
+
+  type :: cell_grid_t
+    real(dp) :: h = 0.0_dp                      !< box edge [m]
+    real(dp) :: inv_h = 0.0_dp
+    integer :: max_span = 4                     !< larger regions are not listed in boxes
+    logical, allocatable :: placed(:)           !< per body
+    logical, allocatable :: large(:)            !< placed outside the boxes
+    real(dp), allocatable :: lower(:, :), upper(:, :)   !< (3, body) region [m]
+    integer(i8), allocatable :: lo(:, :), hi(:, :)      !< (3, body) box range of the region
+    integer :: table_size = 0
+    integer :: n_used = 0                       !< table slots holding a box (possibly empty)
+    integer(i8), allocatable :: slot_key(:, :)  !< (3, slot)
+    logical, allocatable :: slot_used(:)
+    type(cell_t), allocatable :: cells(:)
+    integer, allocatable :: large_ids(:)
+    integer :: n_large = 0
+    integer, allocatable :: mark(:)             !< query de-duplication, per body
+    integer :: mark_stamp = 0
+    integer(i8) :: placements = 0               !< placements so far (summary)
+  contains
+    procedure :: init => cells_init
+    procedure :: free => cells_free
+    procedure :: place => cells_place
+    procedure :: unplace => cells_unplace
+    procedure :: query => cells_query
+    procedure :: grow_bodies => cells_grow_bodies
+    procedure :: overlaps => cells_overlaps
+  end type cell_grid_t
+
+contains
+
+  subroutine cells_init(self, box_size, n_bodies, err, max_span)
+    class(cell_grid_t), intent(inout) :: self
+    real(dp), intent(in) :: box_size
+    integer, intent(in) :: n_bodies
+    type(error_t), intent(inout) :: err
+    integer, intent(in), optional :: max_span
+    call self%free()
+    if (.not. ieee_is_finite(box_size) .or. box_size <= 0.0_dp) then
+      call err%set(ERR_INPUT, 'cell grid: the box size must be finite and > 0')
+      return
+    end if
+    self%h = box_size
+    self%inv_h = 1.0_dp/box_size
+    if (present(max_span)) self%max_span = max(1, max_span)
+    allocate (self%placed(n_bodies), self%large(n_bodies), self%lower(3, n_bodies), self%upper(3, n_bodies), &
+              self%lo(3, n_bodies), self%hi(3, n_bodies), self%mark(n_bodies))
+    self%placed = .false.
+    self%large = .false.
+    self%mark = 0
+    self%mark_stamp = 0
+    self%table_size = 1024
+    allocate (self%slot_key(3, self%table_size), self%slot_used(self%table_size), self%cells(self%table_size))
+    self%slot_used = .false.
+    self%n_used = 0
+    allocate (self%large_ids(16))
+    self%n_large = 0
+  end subroutine cells_init
+
+  subroutine cells_free(self)
+    class(cell_grid_t), intent(inout) :: self
+    if (allocated(self%placed)) deallocate (self%placed, self%large, self%lower, self%upper, self%lo, self%hi, &
+                                            self%mark)
+    if (allocated(self%slot_key)) deallocate (self%slot_key, self%slot_used, self%cells)
+    if (allocated(self%large_ids)) deallocate (self%large_ids)
+    self%n_large = 0
+    self%n_used = 0
+    self%table_size = 0
+  end subroutine cells_free
+
+  !> Room for bodies up to n.
+  subroutine cells_grow_bodies(self, n)
+    class(cell_grid_t), intent(inout) :: self
+    integer, intent(in) :: n
+    logical, allocatable :: l1(:), l2(:)
+    real(dp), allocatable :: r1(:, :), r2(:, :)
+    integer(i8), allocatable :: k1(:, :), k2(:, :)
+    integer, allocatable :: m(:)
+    integer :: old
+    old = size(self%placed)
+    if (old >= n) return
+    allocate (l1(n), l2(n), r1(3, n), r2(3, n), k1(3, n), k2(3, n), m(n))
+    l1 = .false.; l2 = .false.; m = 0
+    l1(1:old) = self%placed; l2(1:old) = self%large
+    r1(:, 1:old) = self%lower; r2(:, 1:old) = self%upper
+    k1(:, 1:old) = self%lo; k2(:, 1:old) = self%hi
+    m(1:old) = self%mark
+    call move_alloc(l1, self%placed); call move_alloc(l2, self%large)
+    call move_alloc(r1, self%lower); call move_alloc(r2, self%upper)
+    call move_alloc(k1, self%lo); call move_alloc(k2, self%hi)
+    call move_alloc(m, self%mark)
+  end subroutine cells_grow_bodies
+
+  !> Places body i with the region [lower, upper] [m] (moving it if placed before).
+  subroutine cells_place(self, i, lower, upper, err)
+    class(cell_grid_t), intent(inout) :: self
+    integer, intent(in) :: i
+    real(dp), intent(in) :: lower(3), upper(3)
+    type(error_t), intent(inout) :: err
+    integer(i8) :: a, b, c
+    if (self%placed(i)) call self%unplace(i)
+    if (.not. (all(ieee_is_finite(lower)) .and. all(ieee_is_finite(upper)))) then
+      call err%set(ERR_NUMERIC, 'cell grid: a body''s region is not finite (a position became NaN or Inf)')
+      return
+    end if
+    if (any(abs(lower)*self%inv_h > MAX_BOX_COORD) .or. any(abs(upper)*self%inv_h > MAX_BOX_COORD)) then
+      call err%set(ERR_NUMERIC, 'cell grid: a body is more than 2^60 boxes from the origin')
+      return
+    end if
+    self%lower(:, i) = lower
+    self%upper(:, i) = upper
+    self%lo(:, i) = int(floor(lower*self%inv_h), i8)
+    self%hi(:, i) = int(floor(upper*self%inv_h), i8)
+    self%placed(i) = .true.
+    self%placements = self%placements + 1
+    if (any(self%hi(:, i) - self%lo(:, i) + 1 > self%max_span)) then
+      self%large(i) = .true.
+      if (self%n_large == size(self%large_ids)) call grow_list(self%large_ids)
+      self%n_large = self%n_large + 1
+      self%large_ids(self%n_large) = i
+      return
+    end if
+    self%large(i) = .false.
+    do c = self%lo(3, i), self%hi(3, i)
+      do b = self%lo(2, i), self%hi(2, i)
+        do a = self%lo(1, i), self%hi(1, i)
+          call insert(self, [a, b, c], i)
+        end do
+      end do
+    end do
+  end subroutine cells_place
+
+  subroutine cells_unplace(self, i)
+    class(cell_grid_t), intent(inout) :: self
+    integer, intent(in) :: i
+    integer(i8) :: a, b, c
+    integer :: k
+    if (.not. self%placed(i)) return
+    self%placed(i) = .false.
+    if (self%large(i)) then
+      do k = 1, self%n_large
+        if (self%large_ids(k) == i) then
+          self%large_ids(k:self%n_large - 1) = self%large_ids(k + 1:self%n_large)
+          self%n_large = self%n_large - 1
+          exit
+        end if
+      end do
+      self%large(i) = .false.
+      return
+    end if
+    do c = self%lo(3, i), self%hi(3, i)
+      do b = self%lo(2, i), self%hi(2, i)
+        do a = self%lo(1, i), self%hi(1, i)
+          call delete(self, [a, b, c], i)
+        end do
+      end do
+    end do
+  end subroutine cells_unplace
+
+  !> Do the regions of bodies i and j overlap?
+  pure logical function cells_overlaps(self, i, j)
+    class(cell_grid_t), intent(in) :: self
+    integer, intent(in) :: i, j
+    cells_overlaps = all(self%lower(:, i) <= self%upper(:, j)) .and. all(self%lower(:, j) <= self%upper(:, i))
+  end function cells_overlaps
+
+  !> The placed bodies whose regions overlap body i's (i placed), into found(1:n_found), in
+  !> increasing index. n_bodies: bodies to scan when i itself is large (its region is not
+  !> in the boxes: every placed body is tested).
+  subroutine cells_query(self, i, found, n_found, n_bodies)
+    class(cell_grid_t), intent(inout) :: self
+    integer, intent(in) :: i
+    integer, allocatable, intent(inout) :: found(:)
+    integer, intent(out) :: n_found
+    integer, intent(in) :: n_bodies
+    integer(i8) :: a, b, c
+    integer :: s, k, j
+    n_found = 0
+    if (.not. allocated(found)) allocate (found(64))
+    call next_stamp(self)
+    self%mark(i) = self%mark_stamp
+    if (self%large(i)) then
+      do j = 1, n_bodies
+        if (j == i .or. .not. self%placed(j)) cycle
+        if (self%overlaps(i, j)) call push(j)
+      end do
+    else
+      do c = self%lo(3, i), self%hi(3, i)
+        do b = self%lo(2, i), self%hi(2, i)
+          do a = self%lo(1, i), self%hi(1, i)
+            s = find_slot(self, [a, b, c])
+            if (s == 0) cycle
+            do k = 1, self%cells(s)%n
+              j = self%cells(s)%ids(k)
+              if (self%mark(j) == self%mark_stamp) cycle
+              self%mark(j) = self%mark_stamp
+              if (self%overlaps(i, j)) call push(j)
+            end do
+          end do
+        end do
+      end do
+      do k = 1, self%n_large
+        j = self%large_ids(k)
+        if (j /= i .and. self%overlaps(i, j)) call push(j)
+      end do
+    end if
+    call sort_ints(found(1:n_found))
+  contains
+    subroutine push(jj)
+      integer, intent(in) :: jj
+      if (n_found == size(found)) call grow_list(found)
+      n_found = n_found + 1
+      found(n_found) = jj
+    end subroutine push
+  end subroutine cells_query
+
+  subroutine next_stamp(self)
+    type(cell_grid_t), intent(inout) :: self
+    if (self%mark_stamp == huge(self%mark_stamp)) then
+      self%mark = 0
+      self%mark_stamp = 0
+    end if
+    self%mark_stamp = self%mark_stamp + 1
+  end subroutine next_stamp
+
+  pure integer function hash_of(key, table_size) result(s)
+    integer(i8), intent(in) :: key(3)
+    integer, intent(in) :: table_size
+    integer(i8) :: h
+    ! large odd multipliers, then the low bits (table sizes are powers of two)
+    h = key(1)*73856093_i8 + key(2)*19349669_i8 + key(3)*83492791_i8
+    h = ieor(h, ishft(h, -17))
+    s = int(iand(h, int(table_size - 1, i8))) + 1
+  end function hash_of
+
+  !> The slot holding box key, 0 if none.
+  pure integer function find_slot(self, key) result(s)
+    type(cell_grid_t), intent(in) :: self
+    integer(i8), intent(in) :: key(3)
+    integer :: probes
+    s = hash_of(key, self%table_size)
+    do probes = 1, self%table_size
+      if (.not. self%slot_used(s)) then
+        s = 0
+        return
+      end if
+      if (all(self%slot_key(:, s) == key)) return
+      s = s + 1
+      if (s > self%table_size) s = 1
+    end do
+    s = 0
+  end function find_slot
+
+  subroutine insert(self, key, i)
+    type(cell_grid_t), intent(inout) :: self
+    integer(i8), intent(in) :: key(3)
+    integer, intent(in) :: i
+    integer :: s
+    s = find_slot(self, key)
+    if (s == 0) then
+      if (2*(self%n_used + 1) > self%table_size) call rehash(self)
+      s = hash_of(key, self%table_size)
+      do while (self%slot_used(s))
+        s = s + 1
+        if (s > self%table_size) s = 1
+      end do
+      self%slot_used(s) = .true.
+      self%slot_key(:, s) = key
+      self%cells(s)%n = 0
+      if (.not. allocated(self%cells(s)%ids)) allocate (self%cells(s)%ids(4))
+      self%n_used = self%n_used + 1
+    end if
+    associate (cell => self%cells(s))
+      if (cell%n == size(cell%ids)) call grow_list(cell%ids)
+      cell%n = cell%n + 1
+      cell%ids(cell%n) = i
+    end associate
+  end subroutine insert
+
+  subroutine delete(self, key, i)
+    type(cell_grid_t), intent(inout) :: self
+    integer(i8), intent(in) :: key(3)
+    integer, intent(in) :: i
+    integer :: s, k
+    s = find_slot(self, key)
+    if (s == 0) return
+    associate (cell => self%cells(s))
+      do k = 1, cell%n
+        if (cell%ids(k) == i) then
+          cell%ids(k) = cell%ids(cell%n)
+          cell%n = cell%n - 1
+          return
+        end if
+      end do
+    end associate
+  end subroutine delete
+
+  !> A table twice the size of the boxes still holding bodies (empty boxes are dropped, so
+  !> a body flying far does not leave a trail of boxes behind).
+  subroutine rehash(self)
+    type(cell_grid_t), intent(inout) :: self
+    integer(i8), allocatable :: old_key(:, :)
+    logical, allocatable :: old_used(:)
+    type(cell_t), allocatable :: old_cells(:)
+    integer :: s, t, occupied, new_size
+    occupied = 0
+    do s = 1, self%table_size
+      if (self%slot_used(s)) then
+        if (self%cells(s)%n > 0) occupied = occupied + 1
+      end if
+    end do
+    new_size = self%table_size
+    do while (new_size < 4*(occupied + 1))
+      new_size = 2*new_size
+    end do
+    call move_alloc(self%slot_key, old_key)
+    call move_alloc(self%slot_used, old_used)
+    call move_alloc(self%cells, old_cells)
+    allocate (self%slot_key(3, new_size), self%slot_used(new_size), self%cells(new_size))
+    self%slot_used = .false.
+    self%table_size = new_size
+    self%n_used = 0
+    do s = 1, size(old_used)
+      if (.not. old_used(s)) cycle
+      if (old_cells(s)%n == 0) cycle
+      t = hash_of(old_key(:, s), new_size)
+      do while (self%slot_used(t))
+        t = t + 1
+        if (t > new_size) t = 1
+      end do
+      self%slot_used(t) = .true.
+      self%slot_key(:, t) = old_key(:, s)
+      call move_alloc(old_cells(s)%ids, self%cells(t)%ids)
+      self%cells(t)%n = old_cells(s)%n
+      self%n_used = self%n_used + 1
+    end do
+  end subroutine rehash
+
+  subroutine grow_list(x)
+    integer, allocatable, intent(inout) :: x(:)
+    integer, allocatable :: y(:)
+    allocate (y(2*size(x)))
+    y(1:size(x)) = x
+    call move_alloc(y, x)
+  end subroutine grow_list
+
+  !> Insertion sort: query results are short.
+  pure subroutine sort_ints(x)
+    integer, intent(inout) :: x(:)
+    integer :: k, m, v
+    do k = 2, size(x)
+      v = x(k)
+      m = k - 1
+      do while (m >= 1)
+        if (x(m) <= v) exit
+        x(m + 1) = x(m)
+        m = m - 1
+      end do
+      x(m + 1) = v
+    end do
+  end subroutine sort_ints
+
+end module cell_grid

@@ -1,0 +1,337 @@
+!> The candidate pairs of the local event loop and what is known about each between events
+!> (a kinetic data structure, docs/architecture.md "Local events").
+!>
+!> A pair slot holds two bodies (local indices, the one with the lower global id first, so
+!> that a pair is evaluated the same way wherever its bodies are stored), the time of its
+!> last closest-point query with the gap and normal found there, the certified time up to
+!> which the pair cannot reach its aim (its next action: query again, an impact, or joining
+!> an island), and the trajectory versions of both bodies that certificate was computed
+!> with. A certificate is current only while both versions are: a body whose anchor changes
+!> gets a new version, and every pair of it is evaluated again.
+!>
+!> Each body lists its pairs (an intrusive singly linked list through the slots: a body has
+!> a few tens of pairs at most, so walking is cheaper than a hash). Freed slots are reused.
+module pair_store
+  use kinds, only: dp, i8
+  implicit none
+  private
+  public :: pair_store_t
+  public :: ACTION_NONE, ACTION_QUERY, ACTION_IMPACT, ACTION_ENTER
+
+  integer, parameter :: ACTION_NONE = 0     !< no event: static or asleep pair, or nothing can happen
+  integer, parameter :: ACTION_QUERY = 1    !< the certificate ends: measure the pair again
+  integer, parameter :: ACTION_IMPACT = 2   !< the pair reaches contact: an impact
+  integer, parameter :: ACTION_ENTER = 3    !< an inelastic pair comes within reach of the contact pass
+
+  type :: pair_store_t
+    integer :: n_slots = 0                      !< slots ever used (high-water mark)
+    integer :: n_live = 0                       !< pairs held now
+    integer, allocatable :: a(:), b(:)          !< local body indices, gid(a) < gid(b); 0: free slot
+    integer, allocatable :: next(:, :)          !< (2, slot): next slot in the list of a (1) and of b (2)
+    integer, allocatable :: head(:)             !< per body: its first pair slot (0: none)
+    integer, allocatable :: degree(:)           !< per body: pairs held
+    integer, allocatable :: free_slots(:)
+    integer :: n_free = 0
+    integer(i8), allocatable :: stamp(:, :)     !< (2, slot): versions of a and b the certificate used
+    real(dp), allocatable :: t_query(:)         !< time of the last closest-point query [s]
+    real(dp), allocatable :: gap(:)             !< gap there [m] (a lower bound if far)
+    real(dp), allocatable :: normal(:, :)       !< (3, slot) normal there, from a to b
+    logical, allocatable :: far(:)              !< gap is only the bounding-volume lower bound
+    real(dp), allocatable :: t_due(:)           !< time of the next action [s]
+    integer, allocatable :: action(:)           !< ACTION_*
+    logical, allocatable :: in_pass(:)          !< the contact pass of the island step solved it
+  contains
+    procedure :: init => store_init
+    procedure :: free => store_free
+    procedure :: add => store_add
+    procedure :: remove => store_remove
+    procedure :: find => store_find
+    procedure :: next_of => store_next_of
+    procedure :: partner => store_partner
+    procedure :: current => store_current
+    procedure :: grow_bodies => store_grow_bodies
+    procedure :: check => store_check
+  end type pair_store_t
+
+contains
+
+  subroutine store_init(self, n_bodies, capacity)
+    class(pair_store_t), intent(inout) :: self
+    integer, intent(in) :: n_bodies, capacity
+    integer :: c
+    call self%free()
+    c = max(capacity, 16)
+    allocate (self%a(c), self%b(c), self%next(2, c), self%free_slots(c), self%stamp(2, c), self%t_query(c), &
+              self%gap(c), self%normal(3, c), self%far(c), self%t_due(c), self%action(c), self%in_pass(c))
+    allocate (self%head(max(n_bodies, 1)), self%degree(max(n_bodies, 1)))
+    self%a = 0
+    self%b = 0
+    self%head = 0
+    self%degree = 0
+    self%n_slots = 0
+    self%n_live = 0
+    self%n_free = 0
+  end subroutine store_init
+
+  subroutine store_free(self)
+    class(pair_store_t), intent(inout) :: self
+    if (allocated(self%a)) deallocate (self%a, self%b, self%next, self%free_slots, self%stamp, self%t_query, &
+                                       self%gap, self%normal, self%far, self%t_due, self%action, self%in_pass)
+    if (allocated(self%head)) deallocate (self%head, self%degree)
+    self%n_slots = 0
+    self%n_live = 0
+    self%n_free = 0
+  end subroutine store_free
+
+  !> Room for bodies up to n (a body list that grew: ghosts, woken bodies).
+  subroutine store_grow_bodies(self, n)
+    class(pair_store_t), intent(inout) :: self
+    integer, intent(in) :: n
+    integer, allocatable :: head(:), degree(:)
+    if (size(self%head) >= n) return
+    allocate (head(n), degree(n))
+    head = 0
+    degree = 0
+    head(1:size(self%head)) = self%head
+    degree(1:size(self%degree)) = self%degree
+    call move_alloc(head, self%head)
+    call move_alloc(degree, self%degree)
+  end subroutine store_grow_bodies
+
+  !> A new pair of bodies i and j (gid_i, gid_j: their global ids; the lower one becomes a).
+  !> Returns its slot. The caller makes sure the pair is not held yet (find).
+  integer function store_add(self, i, j, gid_i, gid_j) result(slot)
+    class(pair_store_t), intent(inout) :: self
+    integer, intent(in) :: i, j
+    integer(i8), intent(in) :: gid_i, gid_j
+    integer :: lo, hi
+    if (gid_i < gid_j) then
+      lo = i; hi = j
+    else
+      lo = j; hi = i
+    end if
+    if (self%n_free > 0) then
+      slot = self%free_slots(self%n_free)
+      self%n_free = self%n_free - 1
+    else
+      if (self%n_slots == size(self%a)) call grow_slots(self)
+      self%n_slots = self%n_slots + 1
+      slot = self%n_slots
+    end if
+    self%a(slot) = lo
+    self%b(slot) = hi
+    self%next(1, slot) = self%head(lo)
+    self%head(lo) = slot
+    self%next(2, slot) = self%head(hi)
+    self%head(hi) = slot
+    self%degree(lo) = self%degree(lo) + 1
+    self%degree(hi) = self%degree(hi) + 1
+    self%stamp(:, slot) = -1
+    self%t_query(slot) = -huge(1.0_dp)
+    self%gap(slot) = huge(1.0_dp)
+    self%normal(:, slot) = 0.0_dp
+    self%far(slot) = .true.
+    self%t_due(slot) = huge(1.0_dp)
+    self%action(slot) = ACTION_NONE
+    self%in_pass(slot) = .false.
+    self%n_live = self%n_live + 1
+  end function store_add
+
+  !> Drops the pair in slot (its queue entry is the caller's).
+  subroutine store_remove(self, slot)
+    class(pair_store_t), intent(inout) :: self
+    integer, intent(in) :: slot
+    call unlink(self, self%a(slot), slot)
+    call unlink(self, self%b(slot), slot)
+    self%degree(self%a(slot)) = self%degree(self%a(slot)) - 1
+    self%degree(self%b(slot)) = self%degree(self%b(slot)) - 1
+    self%a(slot) = 0
+    self%b(slot) = 0
+    if (self%n_free == size(self%free_slots)) call grow_free(self)
+    self%n_free = self%n_free + 1
+    self%free_slots(self%n_free) = slot
+    self%n_live = self%n_live - 1
+  end subroutine store_remove
+
+  !> The slot of the pair (i, j) in either order, 0 if not held.
+  pure integer function store_find(self, i, j) result(slot)
+    class(pair_store_t), intent(in) :: self
+    integer, intent(in) :: i, j
+    integer :: first, other
+    ! walk the shorter list
+    if (self%degree(i) <= self%degree(j)) then
+      first = i; other = j
+    else
+      first = j; other = i
+    end if
+    slot = self%head(first)
+    do while (slot > 0)
+      if (self%a(slot) == other .or. self%b(slot) == other) return
+      slot = self%next_of(slot, first)
+    end do
+  end function store_find
+
+  !> The slot after `slot` in body i's list (0 at the end).
+  pure integer function store_next_of(self, slot, i) result(next_slot)
+    class(pair_store_t), intent(in) :: self
+    integer, intent(in) :: slot, i
+    if (self%a(slot) == i) then
+      next_slot = self%next(1, slot)
+    else
+      next_slot = self%next(2, slot)
+    end if
+  end function store_next_of
+
+  !> The other body of the pair in slot.
+  pure integer function store_partner(self, slot, i) result(j)
+    class(pair_store_t), intent(in) :: self
+    integer, intent(in) :: slot, i
+    if (self%a(slot) == i) then
+      j = self%b(slot)
+    else
+      j = self%a(slot)
+    end if
+  end function store_partner
+
+  !> Was slot's certificate computed with the trajectory versions the bodies have now?
+  pure logical function store_current(self, slot, version) result(ok)
+    class(pair_store_t), intent(in) :: self
+    integer, intent(in) :: slot
+    integer(i8), intent(in) :: version(:)    !< per body
+    ok = self%stamp(1, slot) == version(self%a(slot)) .and. self%stamp(2, slot) == version(self%b(slot))
+  end function store_current
+
+  !> The lists and the counts agree (tests): every live slot is in both of its bodies' lists
+  !> exactly once, and no list holds a free slot.
+  pure logical function store_check(self) result(ok)
+    class(pair_store_t), intent(in) :: self
+    integer :: i, slot, seen, live
+    ok = .true.
+    live = 0
+    do i = 1, size(self%head)
+      seen = 0
+      slot = self%head(i)
+      do while (slot > 0)
+        if (self%a(slot) /= i .and. self%b(slot) /= i) then
+          ok = .false.
+          return
+        end if
+        seen = seen + 1
+        if (seen > self%n_slots) then
+          ok = .false.
+          return
+        end if
+        slot = self%next_of(slot, i)
+      end do
+      if (seen /= self%degree(i)) ok = .false.
+      live = live + seen
+    end do
+    if (live /= 2*self%n_live) ok = .false.
+    if (count(self%a(1:self%n_slots) > 0) /= self%n_live) ok = .false.
+  end function store_check
+
+  subroutine unlink(self, i, slot)
+    type(pair_store_t), intent(inout) :: self
+    integer, intent(in) :: i, slot
+    integer :: s, previous
+    previous = 0
+    s = self%head(i)
+    do while (s > 0)
+      if (s == slot) then
+        if (previous == 0) then
+          self%head(i) = self%next_of(s, i)
+        else if (self%a(previous) == i) then
+          self%next(1, previous) = self%next_of(s, i)
+        else
+          self%next(2, previous) = self%next_of(s, i)
+        end if
+        return
+      end if
+      previous = s
+      s = self%next_of(s, i)
+    end do
+  end subroutine unlink
+
+  subroutine grow_slots(self)
+    type(pair_store_t), intent(inout) :: self
+    integer :: c
+    c = 2*size(self%a)
+    call grow_int(self%a, c)
+    call grow_int(self%b, c)
+    call grow_int2(self%next, c)
+    call grow_i82(self%stamp, c)
+    call grow_real(self%t_query, c)
+    call grow_real(self%gap, c)
+    call grow_real2(self%normal, c)
+    call grow_logical(self%far, c)
+    call grow_real(self%t_due, c)
+    call grow_int(self%action, c)
+    call grow_logical(self%in_pass, c)
+  end subroutine grow_slots
+
+  subroutine grow_free(self)
+    type(pair_store_t), intent(inout) :: self
+    call grow_int(self%free_slots, 2*size(self%free_slots))
+  end subroutine grow_free
+
+  subroutine grow_int(x, c)
+    integer, allocatable, intent(inout) :: x(:)
+    integer, intent(in) :: c
+    integer, allocatable :: y(:)
+    allocate (y(c))
+    y = 0
+    y(1:size(x)) = x
+    call move_alloc(y, x)
+  end subroutine grow_int
+
+  subroutine grow_int2(x, c)
+    integer, allocatable, intent(inout) :: x(:, :)
+    integer, intent(in) :: c
+    integer, allocatable :: y(:, :)
+    allocate (y(size(x, 1), c))
+    y = 0
+    y(:, 1:size(x, 2)) = x
+    call move_alloc(y, x)
+  end subroutine grow_int2
+
+  subroutine grow_i82(x, c)
+    integer(i8), allocatable, intent(inout) :: x(:, :)
+    integer, intent(in) :: c
+    integer(i8), allocatable :: y(:, :)
+    allocate (y(size(x, 1), c))
+    y = 0
+    y(:, 1:size(x, 2)) = x
+    call move_alloc(y, x)
+  end subroutine grow_i82
+
+  subroutine grow_real(x, c)
+    real(dp), allocatable, intent(inout) :: x(:)
+    integer, intent(in) :: c
+    real(dp), allocatable :: y(:)
+    allocate (y(c))
+    y = 0.0_dp
+    y(1:size(x)) = x
+    call move_alloc(y, x)
+  end subroutine grow_real
+
+  subroutine grow_real2(x, c)
+    real(dp), allocatable, intent(inout) :: x(:, :)
+    integer, intent(in) :: c
+    real(dp), allocatable :: y(:, :)
+    allocate (y(size(x, 1), c))
+    y = 0.0_dp
+    y(:, 1:size(x, 2)) = x
+    call move_alloc(y, x)
+  end subroutine grow_real2
+
+  subroutine grow_logical(x, c)
+    logical, allocatable, intent(inout) :: x(:)
+    integer, intent(in) :: c
+    logical, allocatable :: y(:)
+    allocate (y(c))
+    y = .false.
+    y(1:size(x)) = x
+    call move_alloc(y, x)
+  end subroutine grow_logical
+
+end module pair_store
