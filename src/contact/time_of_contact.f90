@@ -62,7 +62,7 @@ contains
   !>    settle by at most the distance to `floor` (< target), so round-off in the relative
   !>    velocity never stalls the run, and no gap ever falls below the floor.
   subroutine advance_pair(oracle, motion, gap0, normal0, step, target, tolerance, floor, velocity_tolerance, &
-                          max_iterations, result, receding, safe_time, hovering)
+                          max_iterations, result, receding, safe_time, hovering, refine)
     class(distance_oracle_t), intent(inout) :: oracle
     type(pair_motion_t), intent(in) :: motion
     real(dp), intent(in) :: gap0, normal0(3), step, target, tolerance
@@ -80,7 +80,14 @@ contains
     !> The pair hovers just above the band (collision_stage): after a few queries past the
     !> safe time the step ends there instead of crawling on (see max_beyond_safe).
     logical, intent(in), optional :: hovering
+    !> A contact reached from above the band is moved to the time the gap crosses the aim,
+    !> target + tolerance/2, to round-off (refine_crossing; default .true.): the time of
+    !> contact is then a property of the two trajectories, not of the time the advancement
+    !> started from, so the global and the local event loop find the same impacts.
+    logical, intent(in), optional :: refine
     type(closing_bound_t) :: bound
+    real(dp) :: t_before, gap_before
+    logical :: do_refine
     logical :: measured_receding
     real(dp) :: t, gap, normal(3), dt, aim, safe
     integer :: beyond_safe
@@ -95,6 +102,8 @@ contains
     aim = target + 0.5_dp*tolerance
     measured_receding = .false.
     if (present(receding)) measured_receding = receding
+    do_refine = .true.
+    if (present(refine)) do_refine = refine
     t = 0.0_dp
     gap = gap0
     normal = normal0
@@ -135,12 +144,18 @@ contains
         result%contact = .true.
         exit
       end if
+      t_before = t
+      gap_before = gap
       t = t + dt
       if (crawl_limited) beyond_safe = beyond_safe + 1
       call oracle%gap_at(t, gap, normal)
       result%iterations = result%iterations + 1
       if (gap <= target + tolerance) then
         result%contact = .true.
+        ! from above the band, aiming at `aim`: the crossing of the aim, exactly
+        if (do_refine .and. gap_before > target + tolerance) &
+          call refine_crossing(oracle, motion, step, target, aim, tolerance, t_before, gap_before, t, gap, normal, &
+                               result)
         exit
       end if
     end do
@@ -148,6 +163,95 @@ contains
     result%gap = gap
     result%normal = normal
   end subroutine advance_pair
+
+  !> The time the gap crosses `aim` (target + tolerance/2), after conservative advancement
+  !> landed at t (gap in [aim, target + tolerance] there; t_prev, gap_prev: the iterate
+  !> before). The advancement approaches the crossing from below in time at a rate set by
+  !> how loose its bound is (turning bodies: linearly, slowly); here a secant step on the
+  !> measured gaps, bracketed once a probe falls below the aim (regula falsi, Illinois), finds
+  !> it to round-off in a few queries. Every probe stays within what the bound certifies
+  !> from the last point above the aim, gap >= target, so no committed time is ever closer
+  !> than the target. If the crossing lies beyond the step, the pair has no contact in it.
+  !> On return t is the crossing (or the last safe point above it when the queries ran out).
+  subroutine refine_crossing(oracle, motion, step, target, aim, tolerance, t_prev, gap_prev, t, gap, normal, result)
+    class(distance_oracle_t), intent(inout) :: oracle
+    type(pair_motion_t), intent(in) :: motion
+    real(dp), intent(in) :: step, target, aim, tolerance
+    real(dp), intent(in) :: t_prev, gap_prev
+    real(dp), intent(inout) :: t, gap, normal(3)
+    type(advancement_result_t), intent(inout) :: result
+    !> Queries beyond the advancement's own; the secant converges superlinearly.
+    integer, parameter :: max_refinements = 40
+    real(dp) :: lo, g_lo, n_lo(3), lo_prev, g_lo_prev, hi, s, g_s, n_s(3), limit, slope, eps_gap
+    real(dp) :: f_lo, f_hi       ! regula falsi: gap - aim at lo and hi, Illinois-weighted
+    type(closing_bound_t) :: bound_lo
+    logical :: bracketed
+    integer :: k, side
+    ! gaps are measured to round-off of the positions; a billionth of the tolerance is far below
+    ! any physical scale of the contact and at or below that round-off
+    eps_gap = 1.0e-9_dp*tolerance
+    lo = t
+    g_lo = gap
+    n_lo = normal
+    lo_prev = t_prev
+    g_lo_prev = gap_prev
+    bracketed = .false.
+    hi = huge(1.0_dp)
+    f_lo = g_lo - aim
+    f_hi = 0.0_dp
+    side = 0
+    do k = 1, max_refinements
+      if (abs(g_lo - aim) <= eps_gap) exit
+      ! the bound from lo: every time up to `limit` keeps the gap at or above the target
+      limit = min(step, lo + time_to_close(closing_bound(motion, n_lo, lo), g_lo - target))
+      if (bracketed) then
+        if (hi - lo <= 4.0_dp*spacing(hi)) exit
+        s = lo + f_lo*(hi - lo)/(f_lo - f_hi)
+        if (.not. (s > lo .and. s < hi)) s = 0.5_dp*(lo + hi)
+      else
+        slope = (g_lo - g_lo_prev)/(lo - lo_prev)
+        if (.not. (slope < 0.0_dp)) then
+          ! not closing between the last two points: the bound's rate
+          bound_lo = closing_bound(motion, n_lo, lo)
+          slope = -bound_lo%rate
+          if (.not. (slope < 0.0_dp)) exit
+        end if
+        s = lo + (g_lo - aim)/(-slope)
+      end if
+      if (s > limit) then
+        if (limit <= lo) exit
+        s = limit
+      end if
+      call oracle%gap_at(s, g_s, n_s)
+      result%iterations = result%iterations + 1
+      if (abs(g_s - aim) <= eps_gap) then
+        lo = s
+        g_lo = g_s
+        n_lo = n_s
+        exit
+      else if (g_s > aim) then
+        lo_prev = lo
+        g_lo_prev = g_lo
+        lo = s
+        g_lo = g_s
+        n_lo = n_s
+        f_lo = g_s - aim
+        if (bracketed .and. side == 1) f_hi = 0.5_dp*f_hi      ! Illinois: the stale end halves
+        side = 1
+        if (.not. bracketed .and. s >= step) exit               ! no crossing within the step
+      else
+        hi = s
+        f_hi = g_s - aim
+        if (bracketed .and. side == -1) f_lo = 0.5_dp*f_lo
+        side = -1
+        bracketed = .true.
+      end if
+    end do
+    t = lo
+    gap = g_lo
+    normal = n_lo
+    if (gap > target + tolerance) result%contact = .false.   ! the crossing is beyond the step
+  end subroutine refine_crossing
 
   !> The closing bound from time t on: velocities have changed by a t since the step began.
   pure function closing_bound(motion, n, t) result(bound)

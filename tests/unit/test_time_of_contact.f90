@@ -117,6 +117,45 @@ program test_time_of_contact
   call pair%gap_at(0.0_dp, gap0, n0)
   call advance_pair(pair, motion, gap0, n0, 10.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 500, res)
   call check(pair%min_gap_seen >= target, 'any-direction bound: never below target')
+
+  ! 7. Canonical time of contact: an oblique hit with a loose bound (an Omega r term of
+  !    3 m/s, as a turning body's, against a 1 m/s approach) lands anywhere in the band, at a
+  !    place that depends on where the advancement started; refined, the time is the crossing
+  !    of target + tol/2, the same from any start, and the analytic one.
+  !    |d0 + u t| = R + aim: d0 = (3, 0.6, 0), u = (-1, 0, 0), R = 1.
+  t_exact = 3.0_dp - sqrt((1.0_dp + target + 0.5_dp*tolerance)**2 - 0.36_dp)
+  block
+    real(dp) :: t_start(3), found(3), t1
+    integer :: k, queries(3)
+    t_start = [0.0_dp, 0.9_dp, 0.2_dp*t_exact + 1.0_dp]
+    do k = 1, 3
+      t1 = t_start(k)
+      call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp, &
+                 [3.0_dp - t1, 0.6_dp, 0.0_dp], [-1.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp)
+      motion = motion_of(pair)
+      motion%omega_r_a = 3.0_dp
+      pair%min_gap_seen = huge(1.0_dp)
+      call pair%gap_at(0.0_dp, gap0, n0)
+      call advance_pair(pair, motion, gap0, n0, 10.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 500, res)
+      found(k) = t1 + res%time
+      queries(k) = res%iterations
+      call check(res%contact .and. pair%min_gap_seen >= target, 'canonical: contact, never below target')
+      ! round-off of the start shift t1 (3 - t1 in the positions) is 1e-16 m, 1e-16 s here
+      call check_close(found(k), t_exact, 1.0e-13_dp, 'canonical: refined time is the analytic crossing of the aim')
+      call check_close(res%gap, target + 0.5_dp*tolerance, 1.0e-8_dp, 'canonical: gap there is the aim')
+    end do
+    call check_close(found(2), found(1), 1.0e-13_dp, 'canonical: same time from another start')
+    call check_close(found(3), found(1), 1.0e-13_dp, 'canonical: same time from a third start')
+    ! without the refinement the landing depends on the start (what the refinement is for)
+    call setup(pair, [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp, &
+               [3.0_dp, 0.6_dp, 0.0_dp], [-1.0_dp, 0.0_dp, 0.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], 0.5_dp)
+    call pair%gap_at(0.0_dp, gap0, n0)
+    call advance_pair(pair, motion, gap0, n0, 10.0_dp, target, tolerance, 0.5_dp*target, 1.0e-9_dp, 500, res, &
+                      refine=.false.)
+    call check(abs(res%time - t_exact) > 1.0e-9_dp, 'canonical: the unrefined landing is off the crossing')
+    ! the refinement's own cost: a secant converges in a few queries (4 here)
+    call check(queries(1) - res%iterations <= 8, 'canonical: the refinement adds at most 8 queries')
+  end block
   call test_finish()
 
 contains
