@@ -27,7 +27,7 @@ module collision_stage
   use advancement_bound, only: angular_speed_bound
   use time_of_contact, only: pair_motion_t, advancement_result_t, distance_oracle_t, advance_pair
   use contact_features, only: contact_feature_t, find_contact_features
-  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity
+  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, contact_groups
   use contact_solver, only: pgs_stats_t, solve_contacts_pgs
   use resting_contact, only: resting_contact_t
   use contact_material, only: material_table_t
@@ -1056,12 +1056,14 @@ contains
     ! Every candidate pair within the contact band joins, so touching neighbours (a cradle,
     ! a box on four corners) are solved in one simultaneous group.
     call gather_contacts(self, bodies, shapes, n_contacts)
+    call keep_event_groups(self, bodies, n_contacts)
     if (n_contacts == 0) return
     ! A body that hits a sleeping island wakes it: the impact is solved with it awake.
     call self%sleep%wake_touching(bodies, flight, self%contacts(1:n_contacts), woke)
     if (woke) then
       call collect_band_contacts(self, bodies, shapes, flight, n_contacts, err)
       if (err%failed()) return
+      call keep_event_groups(self, bodies, n_contacts)
     end if
     self%stats%contacts = self%stats%contacts + n_contacts
     do c = 1, n_contacts
@@ -1101,6 +1103,48 @@ contains
                    ' (smallest separation '//str(self%stats%min_separation)//' m)')
     end if
   end subroutine stage_resolve
+
+  !> Keeps, of self%contacts(1:n_contacts), the contact groups (connected through moving
+  !> bodies) that hold a moving body of an event pair: an impact is simultaneous with what
+  !> touches it, not with every pair that happens to be in the band elsewhere in the scene
+  !> (those reach their own events at their own times). This is also what the local event
+  !> loop solves at an impact, so the two loops find the same impulses.
+  subroutine keep_event_groups(self, bodies, n_contacts)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(inout) :: n_contacts
+    integer, allocatable :: group_start(:), group_list(:), event_bodies(:)
+    logical, allocatable :: keep(:)
+    integer :: n_groups, g, k, c, e
+    if (n_contacts == 0) return
+    allocate (event_bodies(2*self%n_events))
+    e = 0
+    do k = 1, self%n_events
+      do c = 1, 2
+        if (bodies%fixed(self%event_pairs(c, k))) cycle
+        e = e + 1
+        event_bodies(e) = self%event_pairs(c, k)
+      end do
+    end do
+    call contact_groups(bodies, self%contacts(1:n_contacts), group_start, group_list, n_groups)
+    allocate (keep(n_contacts))
+    keep = .false.
+    do g = 1, n_groups
+      associate (members => group_list(group_start(g):group_start(g + 1) - 1))
+        do k = 1, size(members)
+          if (any(event_bodies(1:e) == self%contacts(members(k))%a) .or. &
+              any(event_bodies(1:e) == self%contacts(members(k))%b)) then
+            keep(members) = .true.
+            exit
+          end if
+        end do
+      end associate
+    end do
+    if (all(keep)) return
+    k = count(keep)
+    self%contacts(1:k) = pack(self%contacts(1:n_contacts), keep)
+    n_contacts = k
+  end subroutine keep_event_groups
 
   !> Candidate pairs from one ring of a fresh grid and every contact point within the
   !> contact band, into self%contacts(1:n_contacts). Sleeping islands a moving body touches
