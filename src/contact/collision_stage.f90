@@ -91,6 +91,8 @@ module collision_stage
     real(dp), allocatable :: grid_margin(:)   !< travel bound each body was entered with [m]
     real(dp), allocatable :: turn(:)          !< how far turning moves any surface point in the step [m]
     integer, allocatable :: contact_pair(:)   !< the pass: candidate pair of each contact point
+    logical, allocatable :: held(:)           !< the pass: bodies it holds (false between passes)
+    integer, allocatable :: slot_of(:)        !< local numbering of a correction's bodies (0 between calls)
     type(contact_t), allocatable :: contacts(:)
     integer(i8), allocatable :: keys(:, :)
     type(contact_feature_t), allocatable :: features(:)
@@ -194,24 +196,38 @@ contains
   !> The largest step that keeps every body within one grid box: |v| h + |a| h^2 + band <= box
   !> (a: gravity, or the acceleration of a loaded body, zero; the parabola needs |a| h^2/2, the
   !> motion at v + g h the contact pass may give |a| h^2; band: the contact band).
-  pure real(dp) function stage_limit_step(self, bodies, flight, gravity, h) result(limited)
+  !> members, when present: only these bodies (an island of the local loop).
+  pure real(dp) function stage_limit_step(self, bodies, flight, gravity, h, members) result(limited)
     class(collision_stage_t), intent(in) :: self
     type(bodies_t), intent(in) :: bodies
     type(free_flight_t), intent(in) :: flight
     real(dp), intent(in) :: gravity(3), h
-    real(dp) :: speed, g, room
-    integer :: i
+    integer, intent(in), optional :: members(:)
+    real(dp) :: room
+    integer :: i, m
     limited = h
     ! Each body enters the grid with its travel bound |v| h + |a| h^2 (prepare) plus the
     ! contact band: that sum stays within one box, so two rings find every pair.
     room = self%box_size - (self%target + self%tolerance)
-    do i = 1, bodies%n_owned
-      if (bodies%fixed(i)) cycle
-      g = norm2(flight%acceleration(i, gravity))
-      speed = norm2(bodies%v(:, i))
+    if (present(members)) then
+      do m = 1, size(members)
+        call limit_one(members(m))
+      end do
+    else
+      do i = 1, bodies%n_owned
+        call limit_one(i)
+      end do
+    end if
+  contains
+    pure subroutine limit_one(k)
+      integer, intent(in) :: k
+      real(dp) :: speed, g
+      if (bodies%fixed(k)) return
+      g = norm2(flight%acceleration(k, gravity))
+      speed = norm2(bodies%v(:, k))
       if (speed*limited + g*limited*limited > room) &
         limited = 2.0_dp*room/(speed + sqrt(speed*speed + 4.0_dp*g*room))
-    end do
+    end subroutine limit_one
   end function stage_limit_step
 
   !> The step's candidate pairs, once per step before the contact pass. Every moving body
@@ -344,14 +360,15 @@ contains
     integer, parameter :: max_sweeps = 200, max_halvings = 4
     real(dp), allocatable :: lam(:), bound(:), d(:, :), x_saved(:, :), gap_new(:), normal_new(:, :)
     logical, allocatable :: active(:), moves(:)
-    integer :: n, k, i, j, sweep, halving
+    integer, allocatable :: local(:, :), body_of(:)
+    integer :: n, k, i, j, sweep, halving, nb, li, lj, b
     real(dp) :: aim, weight, residual, dl, worst, alpha, largest
     logical :: ok
     n = bodies%n_owned + bodies%n_ghost
     if (self%n_pairs == 0) return
     if (.not. any(.not. self%pair_far(1:self%n_pairs) .and. self%pair_gap0(1:self%n_pairs) < trigger*self%target)) return
     aim = self%target + 0.5_dp*self%tolerance
-    allocate (lam(self%n_pairs), bound(self%n_pairs), active(self%n_pairs), d(3, n), moves(n))
+    allocate (lam(self%n_pairs), bound(self%n_pairs), active(self%n_pairs), local(2, self%n_pairs))
     ! The constraints: every near pair with a moving body.
     lam = 0.0_dp
     do k = 1, self%n_pairs
@@ -362,6 +379,10 @@ contains
       bound(k) = min(self%pair_gap0(k), aim)
       if (self%pair_gap0(k) < trigger*self%target) bound(k) = aim
     end do
+    ! The bodies of the constraints, numbered locally (a correction costs its pairs, not the
+    ! scene): body_of(1:nb), local(:, k) the local numbers of pair k's bodies.
+    call number_pair_bodies(self, n, active, local, body_of, nb)
+    allocate (d(3, nb), moves(nb))
     d = 0.0_dp
     do sweep = 1, max_sweeps
       worst = 0.0_dp
@@ -369,30 +390,35 @@ contains
         if (.not. active(k)) cycle
         i = self%pairs(1, k)
         j = self%pairs(2, k)
+        li = local(1, k)
+        lj = local(2, k)
         weight = bodies%inv_mass(i) + bodies%inv_mass(j)
         if (weight <= 0.0_dp) cycle
-        residual = self%pair_gap0(k) + dot_product(self%pair_normal(:, k), d(:, j) - d(:, i)) - bound(k)
+        residual = self%pair_gap0(k) + dot_product(self%pair_normal(:, k), d(:, lj) - d(:, li)) - bound(k)
         dl = max(-residual/weight, -lam(k))
         if (dl == 0.0_dp) cycle
         lam(k) = lam(k) + dl
-        d(:, j) = d(:, j) + bodies%inv_mass(j)*dl*self%pair_normal(:, k)
-        d(:, i) = d(:, i) - bodies%inv_mass(i)*dl*self%pair_normal(:, k)
+        d(:, lj) = d(:, lj) + bodies%inv_mass(j)*dl*self%pair_normal(:, k)
+        d(:, li) = d(:, li) - bodies%inv_mass(i)*dl*self%pair_normal(:, k)
         worst = max(worst, abs(residual))
       end do
       if (worst <= 1.0e-3_dp*self%target) exit
     end do
-    do i = 1, n
-      moves(i) = any(d(:, i) /= 0.0_dp) .and. .not. bodies%fixed(i)
+    do b = 1, nb
+      moves(b) = any(d(:, b) /= 0.0_dp) .and. .not. bodies%fixed(body_of(b))
     end do
     if (.not. any(moves)) return
-    x_saved = bodies%x(:, 1:n)
+    allocate (x_saved(3, nb))
+    do b = 1, nb
+      x_saved(:, b) = bodies%x(:, body_of(b))
+    end do
     allocate (gap_new(self%n_pairs), normal_new(3, self%n_pairs))
     largest = maxval(norm2(d, dim=1), mask=moves)
     alpha = min(1.0_dp, 0.5_dp*(self%target + self%tolerance)/largest)
     if (alpha < 1.0_dp) self%stats%corrections_capped = self%stats%corrections_capped + 1
     do halving = 0, max_halvings
-      do i = 1, n
-        if (moves(i)) bodies%x(:, i) = x_saved(:, i) + alpha*d(:, i)
+      do b = 1, nb
+        if (moves(b)) bodies%x(:, body_of(b)) = x_saved(:, b) + alpha*d(:, b)
       end do
       ! Measure every pair of a moved body: none may end closer than its bound allows
       ! (the low ones at least no closer than they were).
@@ -401,7 +427,7 @@ contains
         if (.not. active(k)) cycle
         i = self%pairs(1, k)
         j = self%pairs(2, k)
-        if (.not. (moves(i) .or. moves(j))) cycle
+        if (.not. (moved(i) .or. moved(j))) cycle
         call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
                       gap_new(k), normal_new(:, k))
         self%stats%pair_tests = self%stats%pair_tests + 1
@@ -416,13 +442,16 @@ contains
       alpha = 0.5_dp*alpha
     end do
     if (.not. ok) then
-      bodies%x(:, 1:n) = x_saved
+      do b = 1, nb
+        bodies%x(:, body_of(b)) = x_saved(:, b)
+      end do
+      call clear_numbers()
       return
     end if
     do k = 1, self%n_pairs
       i = self%pairs(1, k)
       j = self%pairs(2, k)
-      if (.not. (moves(i) .or. moves(j))) cycle
+      if (.not. (moved(i) .or. moved(j))) cycle
       if (active(k)) then
         self%pair_gap0(k) = gap_new(k)
         self%pair_normal(:, k) = normal_new(:, k)
@@ -435,11 +464,59 @@ contains
       end if
       self%stats%min_separation = min(self%stats%min_separation, self%pair_gap0(k))
     end do
-    do i = 1, n
-      if (moves(i)) call flight%release(i)
+    do b = 1, nb
+      if (moves(b)) call flight%release(body_of(b))
     end do
     self%stats%corrections = self%stats%corrections + count(moves)
+    call clear_numbers()
+  contains
+    logical function moved(body)
+      integer, intent(in) :: body
+      moved = .false.
+      if (self%slot_of(body) > 0) moved = moves(self%slot_of(body))
+    end function moved
+    subroutine clear_numbers()
+      integer :: bb
+      do bb = 1, nb
+        self%slot_of(body_of(bb)) = 0
+      end do
+    end subroutine clear_numbers
   end subroutine stage_correct_distances
+
+  !> Local numbers 1..nb for the bodies of the active pairs, in order of first appearance
+  !> (body_of(1:nb)); local(:, k): those of pair k's bodies. self%slot_of holds the numbers
+  !> until the caller clears them (it is all zero between calls).
+  subroutine number_pair_bodies(self, n, active, local, body_of, nb)
+    type(collision_stage_t), intent(inout) :: self
+    integer, intent(in) :: n
+    logical, intent(in) :: active(:)
+    integer, intent(out) :: local(:, :)
+    integer, allocatable, intent(out) :: body_of(:)
+    integer, intent(out) :: nb
+    integer :: k, c, body
+    if (allocated(self%slot_of)) then
+      if (size(self%slot_of) < n) deallocate (self%slot_of)
+    end if
+    if (.not. allocated(self%slot_of)) then
+      allocate (self%slot_of(n))
+      self%slot_of = 0
+    end if
+    allocate (body_of(2*count(active)))
+    nb = 0
+    local = 0
+    do k = 1, size(active)
+      if (.not. active(k)) cycle
+      do c = 1, 2
+        body = self%pairs(c, k)
+        if (self%slot_of(body) == 0) then
+          nb = nb + 1
+          body_of(nb) = body
+          self%slot_of(body) = nb
+        end if
+        local(c, k) = self%slot_of(body)
+      end do
+    end do
+  end subroutine number_pair_bodies
 
   !> Earliest time of contact in [0, h] over all candidate pairs: h_event <= h. The pairs
   !> that reach contact at h_event are kept for resolve.
@@ -772,14 +849,18 @@ contains
   !>    solved with the step instead of cutting it at the time of contact; conservative
   !>    advancement still checks the motion (the pair may come down to the settling floor).
   !> Solved with e = 0 and friction; sets the loads the propagator applies over the step.
-  subroutine stage_contact_pass(self, bodies, shapes, flight, h, gravity, err)
+  !> members, when present: the island of the local event loop this pass is for (its pairs
+  !> are the step's pairs, its sleeping neighbours already woken by the caller); those of
+  !> them in no persistent contact fly free. Default: the whole scene (the global loop).
+  subroutine stage_contact_pass(self, bodies, shapes, flight, h, gravity, err, members)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
     type(shape_library_t), intent(in) :: shapes
     type(free_flight_t), intent(inout) :: flight
     real(dp), intent(in) :: h, gravity(3)
     type(error_t), intent(inout) :: err
-    logical, allocatable :: persistent(:), held(:)
+    integer, intent(in), optional :: members(:)
+    logical, allocatable :: persistent(:)
     real(dp), allocatable :: u_start(:)
     integer :: n, i, n_contacts, c, kept, round
     real(dp) :: separating_limit
@@ -788,10 +869,12 @@ contains
     n_contacts = 0
     self%pass_step = h
     self%n_band_pairs = 0
+    call ensure_held(self, n)
     if (n >= 2 .and. h > 0.0_dp) then
       ! Each round wakes at least one island: at most as many rounds as islands asleep.
       do round = 1, n + 1
         call pass_contacts(self, bodies, shapes, h, n_contacts)
+        if (present(members)) exit
         call wake_reached(self, bodies, flight, h, gravity, n_contacts, woke)
         if (.not. woke) exit
         ! the woken bodies' pairs with each other were static-static pairs, never listed
@@ -806,8 +889,7 @@ contains
       ! Contacts separating faster than gravity can close in the step need no impulse; leaving
       ! them out keeps a body that bounces off the floor on its exact parabola.
       separating_limit = 2.0_dp*norm2(gravity)*h + self%velocity_tolerance
-      allocate (held(n), u_start(n_contacts))
-      held = .false.
+      allocate (u_start(n_contacts))
       do c = 1, n_contacts
         u_start(c) = normal_velocity(bodies, self%contacts(c))
         if (self%contacts(c)%allowed_approach > 0.0_dp) then
@@ -829,7 +911,7 @@ contains
         grew = .false.
         do c = 1, n_contacts
           if (persistent(c)) cycle
-          if (.not. (held(self%contacts(c)%a) .or. held(self%contacts(c)%b))) cycle
+          if (.not. (self%held(self%contacts(c)%a) .or. self%held(self%contacts(c)%b))) cycle
           if (self%contacts(c)%restitution > 0.0_dp .and. u_start(c) < -self%rest_speed) cycle
           persistent(c) = .true.
           call hold(c)
@@ -840,6 +922,8 @@ contains
       kept = count(persistent)
       do c = 1, n_contacts
         if (persistent(c)) self%pair_in_pass(self%contact_pair(c)) = .true.
+        self%held(self%contacts(c)%a) = .false.
+        self%held(self%contacts(c)%b) = .false.
       end do
       if (kept < n_contacts) then
         self%contacts(1:kept) = pack(self%contacts(1:n_contacts), persistent)
@@ -847,7 +931,12 @@ contains
       end if
     end if
     if (kept > 0 .and. h > 0.0_dp) then
-      call self%resting%solve(bodies, flight, self%contacts(1:kept), self%keys(:, 1:kept), kept, h, gravity, err)
+      call self%resting%solve(bodies, flight, self%contacts(1:kept), self%keys(:, 1:kept), kept, h, gravity, err, &
+                              members)
+    else if (present(members)) then
+      do i = 1, size(members)
+        if (members(i) <= bodies%n_owned) call flight%clear_load(members(i))
+      end do
     else
       do i = 1, bodies%n_owned
         call flight%clear_load(i)
@@ -857,8 +946,8 @@ contains
 
     subroutine hold(cc)
       integer, intent(in) :: cc
-      held(self%contacts(cc)%a) = .not. bodies%fixed(self%contacts(cc)%a)
-      held(self%contacts(cc)%b) = .not. bodies%fixed(self%contacts(cc)%b)
+      self%held(self%contacts(cc)%a) = .not. bodies%fixed(self%contacts(cc)%a)
+      self%held(self%contacts(cc)%b) = .not. bodies%fixed(self%contacts(cc)%b)
     end subroutine hold
 
     !> A speculative contact joins on its own when, with gravity's impulse for the step, it
@@ -870,6 +959,19 @@ contains
     end function speculative_active
 
   end subroutine stage_contact_pass
+
+  !> The pass's per-body flags, all false between passes (set and cleared for its contacts'
+  !> bodies only: a pass costs its contacts, not the scene).
+  subroutine ensure_held(self, n)
+    type(collision_stage_t), intent(inout) :: self
+    integer, intent(in) :: n
+    if (allocated(self%held)) then
+      if (size(self%held) >= n) return
+      deallocate (self%held)
+    end if
+    allocate (self%held(n))
+    self%held = .false.
+  end subroutine ensure_held
 
   !> Change of a contact's normal velocity from gravity's impulse over h for the moving bodies
   !> (zero when both move: gravity does not change their relative velocity) [m/s].
@@ -1008,21 +1110,39 @@ contains
   !> combination of the start velocity and the solved one, so a persistent contact that
   !> approached at neither does not approach now. The motion over the step was the one
   !> conservative advancement checked; only the velocities change.
-  subroutine stage_return_unused_pass(self, bodies, flight, h_taken)
+  !> members and pass_step, when present: an island of the local loop, whose own pass was
+  !> for a step of pass_step [s] (default: every owned body, the last pass's step).
+  subroutine stage_return_unused_pass(self, bodies, flight, h_taken, members, pass_step)
     class(collision_stage_t), intent(in) :: self
     type(bodies_t), intent(inout) :: bodies
     type(free_flight_t), intent(inout) :: flight
     real(dp), intent(in) :: h_taken   !< the step taken [s]
-    real(dp) :: unused
-    integer :: i
-    if (h_taken >= self%pass_step) return
-    unused = 1.0_dp - h_taken/self%pass_step
-    do i = 1, bodies%n_owned
-      if (bodies%fixed(i) .or. .not. flight%loaded(i)) cycle
-      bodies%v(:, i) = bodies%v(:, i) - unused*self%resting%dv(:, i)
-      bodies%w(:, i) = bodies%w(:, i) - unused*self%resting%dw(:, i)
-      call flight%release(i)
-    end do
+    integer, intent(in), optional :: members(:)
+    real(dp), intent(in), optional :: pass_step
+    real(dp) :: unused, planned
+    integer :: i, m
+    planned = self%pass_step
+    if (present(pass_step)) planned = pass_step
+    if (h_taken >= planned) return
+    unused = 1.0_dp - h_taken/planned
+    if (present(members)) then
+      do m = 1, size(members)
+        call take_back(members(m))
+      end do
+    else
+      do i = 1, bodies%n_owned
+        call take_back(i)
+      end do
+    end if
+  contains
+    subroutine take_back(k)
+      integer, intent(in) :: k
+      if (k > bodies%n_owned) return
+      if (bodies%fixed(k) .or. .not. flight%loaded(k)) return
+      bodies%v(:, k) = bodies%v(:, k) - unused*self%resting%dv(:, k)
+      bodies%w(:, k) = bodies%w(:, k) - unused*self%resting%dw(:, k)
+      call flight%release(k)
+    end subroutine take_back
   end subroutine stage_return_unused_pass
 
   !> After the bodies moved to the event: contact points of every pair in contact (the
