@@ -27,7 +27,7 @@ module collision_stage
   use advancement_bound, only: angular_speed_bound
   use time_of_contact, only: pair_motion_t, advancement_result_t, distance_oracle_t, advance_pair
   use contact_features, only: contact_feature_t, find_contact_features
-  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, contact_groups
+  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, contact_groups, group_members
   use contact_solver, only: pgs_stats_t, solve_contacts_pgs
   use resting_contact, only: resting_contact_t
   use contact_material, only: material_table_t
@@ -104,6 +104,7 @@ module collision_stage
     procedure :: return_unused_pass => stage_return_unused_pass
     procedure :: limit_step => stage_limit_step
     procedure :: earliest_contact => stage_earliest_contact
+    procedure :: advance_candidate => stage_advance_candidate
     procedure :: resolve => stage_resolve
     procedure :: settle => stage_settle
     procedure :: drop_events => stage_drop_events
@@ -530,13 +531,9 @@ contains
     real(dp), intent(out) :: h_event
     type(error_t), intent(inout) :: err
     real(dp), allocatable :: margin(:)
-    type(pair_oracle_t) :: oracle
-    type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
-    real(dp) :: gap0, normal0(3), safe, floor
-    real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
-    logical, allocatable :: receding(:), far(:), pair_touches(:), solved(:)
-    logical :: hovering
+    real(dp), allocatable :: pair_time(:)
+    logical, allocatable :: pair_touches(:)
     integer :: n, i, j, k
 
     n = bodies%n_owned + bodies%n_ghost
@@ -563,98 +560,16 @@ contains
     if (err%failed()) return
     if (self%n_pairs == 0) return
 
-    oracle%flight => flight
-    oracle%bodies => bodies
-    oracle%shapes => shapes
-    oracle%config = config
-    oracle%time_now = time_now
-    oracle%gravity = gravity
     allocate (pair_time(self%n_pairs), pair_touches(self%n_pairs))
     pair_touches = .false.
     pair_time = huge(1.0_dp)
-    ! Gaps at the step's start (prepare, after the distance correction).
-    pair_gap0 = self%pair_gap0(1:self%n_pairs)
-    pair_normal = self%pair_normal(:, 1:self%n_pairs)
-    far = self%pair_far(1:self%n_pairs)
-    ! Inelastic pairs the contact pass solved (in the band, or speculative: not yet touching),
-    ! still above the floor: their contact points may approach only as fast as closes them to
-    ! the band in the step, and whatever the solve left is bounded below as it is.
-    allocate (solved(self%n_pairs))
+    ! Gaps at the step's start: prepare's, after the distance correction.
     do k = 1, self%n_pairs
-      solved(k) = self%pair_in_pass(k) .and. .not. far(k) .and. pair_gap0(k) > 0.5_dp*self%target + self%tolerance
-      if (solved(k)) solved(k) = self%materials%pair_restitution(bodies%group_id(self%pairs(1, k)), &
-                                                                 bodies%group_id(self%pairs(2, k))) <= 0.0_dp
-    end do
-    ! In the contact band, measure whether any contact point really approaches: the bound's
-    ! turning term (Omega r) says "may approach" for every spinning pair in contact.
-    ! Receding pairs settle towards the floor instead of stopping the run (pairs already
-    ! near the floor were opened by correct_distances at the step's start).
-    allocate (receding(self%n_pairs))
-    receding = .false.
-    do k = 1, self%n_pairs
+      if (self%pair_far(k)) cycle
       i = self%pairs(1, k)
       j = self%pairs(2, k)
-      if (far(k)) cycle
-      if (pair_gap0(k) > self%target + self%tolerance .or. solved(k)) cycle
-      gap0 = pair_gap0(k)
-      normal0 = pair_normal(:, k)
-      motion = pair_motion(shapes, bodies, flight, i, j, gravity)
-      if (band_rate(motion, normal0) <= self%velocity_tolerance) cycle
-      if (approaching(self, bodies, shapes, i, j, gap0, normal0)) cycle
-      receding(k) = .true.
-    end do
-    do k = 1, self%n_pairs
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      if (far(k)) cycle
-      gap0 = pair_gap0(k)
-      normal0 = pair_normal(:, k)
-      motion = pair_motion(shapes, bodies, flight, i, j, gravity)
-      oracle%i = i
-      oracle%j = j
-      oracle%min_gap = huge(1.0_dp)
-      ! Turning bodies: the second-order bound (plane_bound) skips the part of the step in
-      ! which the pair provably stays above the band (or, settling in the band, above the
-      ! floor). A pair hovering just above the band (within one target, its centres closing
-      ! slower than the rest speed: a tumbling body about to rest) may come down to 3/4 of
-      ! the target instead, or the first-order bound would crawl towards the band in tiny
-      ! steps; such a contact is a resting one, not an impact whose timing matters.
-      safe = 0.0_dp
-      hovering = .false.
-      if (solved(k)) then
-        ! A solved pair may come down to the settling floor; only there is it an event.
-        ! Turning pairs: the second-order bound, re-tested along the step (extend_receding),
-        ! with the first-order bound crawl-limited.
-        if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
-          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target + self%tolerance, &
-                                 h_event)
-          if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
-        end if
-        call advance_pair(oracle, motion, gap0, normal0, h_event, 0.5_dp*self%target, self%tolerance, &
-                          0.5_dp*self%target, self%velocity_tolerance, self%max_iterations, res, safe_time=safe, &
-                          hovering=.true.)
-      else
-        if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
-          if (gap0 > self%target + self%tolerance) then
-            floor = self%target + self%tolerance
-            hovering = gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed
-            if (hovering) floor = 0.75_dp*self%target
-            safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, floor, h_event)
-          else if (receding(k) .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
-            safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, h_event)
-          end if
-          if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
-        end if
-        call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, 0.5_dp*self%target, &
-                          self%velocity_tolerance, self%max_iterations, res, receding=receding(k), safe_time=safe, &
-                          hovering=hovering)
-      end if
-      self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
-      self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
-      if ((receding(k) .or. solved(k)) .and. (res%contact .or. res%capped) .and. res%time > 0.0_dp .and. &
-          res%time < h_event .and. flight%exact) then
-        call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_event, res, solved(k))
-      end if
+      call self%advance_candidate(bodies, shapes, flight, gravity, config, time_now, k, h_event, self%max_iterations, &
+                                  res)
       if (res%capped) self%stats%capped = self%stats%capped + 1
       if (res%contact .or. res%capped) then
         pair_time(k) = res%time
@@ -680,6 +595,102 @@ contains
       end if
     end do
   end subroutine stage_earliest_contact
+
+  !> Time of contact of candidate pair k of the step's table over [0, step] from time_now
+  !> (bodies at time_now), by conservative advancement, with what the pair is: solved by the
+  !> contact pass (an inelastic pair may come down to the settling floor), in the band and
+  !> receding (it may settle), hovering just above the band, or an approach to the target;
+  !> turning pairs start from the second-order safe time (plane_bound) and receding ones are
+  !> re-tested along the step (extend_receding). One pair's part of earliest_contact, and what
+  !> the local event loop computes for a pair whose certificate is due.
+  subroutine stage_advance_candidate(self, bodies, shapes, flight, gravity, config, time_now, k, step, &
+                                     max_iterations, res)
+    class(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout), target :: bodies
+    type(shape_library_t), intent(in), target :: shapes
+    type(free_flight_t), intent(inout), target :: flight
+    real(dp), intent(in) :: gravity(3), time_now
+    type(integrator_config_t), intent(in) :: config
+    integer, intent(in) :: k
+    real(dp), intent(in) :: step          !< [s] from time_now
+    integer, intent(in) :: max_iterations
+    type(advancement_result_t), intent(out) :: res
+    type(pair_oracle_t) :: oracle
+    type(pair_motion_t) :: motion
+    real(dp) :: gap0, normal0(3), safe, floor
+    logical :: hovering, solved, receding
+    integer :: i, j
+    i = self%pairs(1, k)
+    j = self%pairs(2, k)
+    gap0 = self%pair_gap0(k)
+    normal0 = self%pair_normal(:, k)
+    ! Inelastic pairs the contact pass solved (in the band, or speculative: not yet touching),
+    ! still above the floor: their contact points may approach only as fast as closes them to
+    ! the band in the step, and whatever the solve left is bounded below as it is.
+    solved = self%pair_in_pass(k) .and. gap0 > 0.5_dp*self%target + self%tolerance
+    if (solved) solved = self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j)) <= 0.0_dp
+    motion = pair_motion(shapes, bodies, flight, i, j, gravity)
+    ! In the contact band, measure whether any contact point really approaches: the bound's
+    ! turning term (Omega r) says "may approach" for every spinning pair in contact.
+    ! Receding pairs settle towards the floor instead of stopping the run (pairs already
+    ! near the floor were opened by correct_distances at the step's start).
+    receding = .false.
+    if (.not. (gap0 > self%target + self%tolerance .or. solved)) then
+      if (band_rate(motion, normal0) > self%velocity_tolerance) &
+        receding = .not. approaching(self, bodies, shapes, i, j, gap0, normal0)
+    end if
+    oracle%flight => flight
+    oracle%bodies => bodies
+    oracle%shapes => shapes
+    oracle%config = config
+    oracle%time_now = time_now
+    oracle%gravity = gravity
+    oracle%i = i
+    oracle%j = j
+    oracle%min_gap = huge(1.0_dp)
+    ! Turning bodies: the second-order bound (plane_bound) skips the part of the step in
+    ! which the pair provably stays above the band (or, settling in the band, above the
+    ! floor). A pair hovering just above the band (within one target, its centres closing
+    ! slower than the rest speed: a tumbling body about to rest) may come down to 3/4 of
+    ! the target instead, or the first-order bound would crawl towards the band in tiny
+    ! steps; such a contact is a resting one, not an impact whose timing matters.
+    safe = 0.0_dp
+    hovering = .false.
+    if (solved) then
+      ! A solved pair may come down to the settling floor; only there is it an event.
+      ! Turning pairs: the second-order bound, re-tested along the step (extend_receding),
+      ! with the first-order bound crawl-limited.
+      if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
+        safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target + self%tolerance, &
+                               step)
+        if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
+      end if
+      call advance_pair(oracle, motion, gap0, normal0, step, 0.5_dp*self%target, self%tolerance, &
+                        0.5_dp*self%target, self%velocity_tolerance, max_iterations, res, safe_time=safe, &
+                        hovering=.true.)
+    else
+      if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
+        if (gap0 > self%target + self%tolerance) then
+          floor = self%target + self%tolerance
+          hovering = gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed
+          if (hovering) floor = 0.75_dp*self%target
+          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, floor, step)
+        else if (receding .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
+          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, step)
+        end if
+        if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
+      end if
+      call advance_pair(oracle, motion, gap0, normal0, step, self%target, self%tolerance, 0.5_dp*self%target, &
+                        self%velocity_tolerance, max_iterations, res, receding=receding, safe_time=safe, &
+                        hovering=hovering)
+    end if
+    self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
+    self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
+    if ((receding .or. solved) .and. (res%contact .or. res%capped) .and. res%time > 0.0_dp .and. &
+        res%time < step .and. flight%exact) then
+      call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, step, res, solved)
+    end if
+  end subroutine stage_advance_candidate
 
   !> A pair in the band whose contact points recede (a tumbling body sliding or rolling
   !> over another) advances only to its second-order safe time, a few microseconds when the
@@ -1159,7 +1170,8 @@ contains
     real(dp), intent(in) :: h_event     !< the step taken [s]
     real(dp), intent(in) :: h_planned   !< the step before the contact cut it [s]
     type(error_t), intent(inout) :: err
-    integer :: i, c, n_contacts
+    integer :: i, c, n_contacts, n_moving
+    integer, allocatable :: moving(:), side(:, :)
     real(dp), allocatable :: v_old(:, :), w_old(:, :), normal_impulse(:), friction_impulse(:, :)
     logical, allocatable :: large(:)
     logical :: woke
@@ -1189,8 +1201,13 @@ contains
     do c = 1, n_contacts
       if (normal_velocity(bodies, self%contacts(c)) > -self%rest_speed) self%contacts(c)%restitution = 0.0_dp
     end do
-    v_old = bodies%v
-    w_old = bodies%w
+    ! the bodies the impulses can change, and their velocities before
+    call group_members(bodies, self%contacts(1:n_contacts), moving, n_moving, side)
+    allocate (v_old(3, n_moving), w_old(3, n_moving))
+    do c = 1, n_moving
+      v_old(:, c) = bodies%v(:, moving(c))
+      w_old(:, c) = bodies%w(:, moving(c))
+    end do
     allocate (normal_impulse(n_contacts), large(n_contacts))
     call resolve_impacts(bodies, self%contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, &
                          self%impulses, err, normal_impulse, self%resting%projection_limit, large)
@@ -1213,8 +1230,10 @@ contains
       end if
     end if
     call remove_residual_approach(self, bodies, self%contacts(1:n_contacts))
-    do i = 1, bodies%n_owned
-      if (any(v_old(:, i) /= bodies%v(:, i)) .or. any(w_old(:, i) /= bodies%w(:, i))) call flight%release(i)
+    do c = 1, n_moving
+      i = moving(c)
+      if (i > bodies%n_owned) cycle
+      if (any(v_old(:, c) /= bodies%v(:, i)) .or. any(w_old(:, c) /= bodies%w(:, i))) call flight%release(i)
     end do
     ! A step of length zero that changed nothing cannot be followed by another.
     if (self%zero_steps > 1000) then
