@@ -37,7 +37,7 @@ module collision_stage
   use sleeping, only: sleep_t
   implicit none
   private
-  public :: collision_stage_t, collision_stats_t, smallest_moving_extent
+  public :: collision_stage_t, collision_stats_t, smallest_moving_extent, turning_reach
 
   type :: collision_stats_t
     integer(i8) :: events = 0                  !< steps that ended at a contact
@@ -92,6 +92,11 @@ module collision_stage
     real(dp), allocatable :: turn(:)          !< how far turning moves any surface point in the step [m]
     integer, allocatable :: contact_pair(:)   !< the pass: candidate pair of each contact point
     logical, allocatable :: held(:)           !< the pass: bodies it holds (false between passes)
+    !> Event log (&output event_log): per body changed by an impact, time [s], global id,
+    !> linear impulse [N s] and angular impulse about its centre of mass [N m s].
+    logical :: log_events = .false.
+    real(dp), allocatable :: log_rows(:, :)
+    integer :: n_log = 0
     integer, allocatable :: slot_of(:)        !< local numbering of a correction's bodies (0 between calls)
     type(contact_t), allocatable :: contacts(:)
     integer(i8), allocatable :: keys(:, :)
@@ -109,6 +114,7 @@ module collision_stage
     procedure :: settle => stage_settle
     procedure :: drop_events => stage_drop_events
     procedure :: wake_all => stage_wake_all
+    procedure :: reserve_table => stage_reserve_table
   end type collision_stage_t
 
   !> Closest points of one pair at time_now + t, with the poses the propagator will give.
@@ -1162,7 +1168,8 @@ contains
   !> Contacts approaching slower than the rest speed are inelastic; with friction, the
   !> normal impulses bound the friction impulses of the same impact (Coulomb's cone), and if
   !> friction makes a contact approach again the inelastic projection closes the loop.
-  subroutine stage_resolve(self, bodies, shapes, flight, h_event, h_planned, err)
+  !> time [s], when present: the event's time, for the event log (log_events).
+  subroutine stage_resolve(self, bodies, shapes, flight, h_event, h_planned, err, time)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
     type(shape_library_t), intent(in) :: shapes
@@ -1170,6 +1177,7 @@ contains
     real(dp), intent(in) :: h_event     !< the step taken [s]
     real(dp), intent(in) :: h_planned   !< the step before the contact cut it [s]
     type(error_t), intent(inout) :: err
+    real(dp), intent(in), optional :: time
     integer :: i, c, n_contacts, n_moving
     integer, allocatable :: moving(:), side(:, :)
     real(dp), allocatable :: v_old(:, :), w_old(:, :), normal_impulse(:), friction_impulse(:, :)
@@ -1233,7 +1241,10 @@ contains
     do c = 1, n_moving
       i = moving(c)
       if (i > bodies%n_owned) cycle
-      if (any(v_old(:, c) /= bodies%v(:, i)) .or. any(w_old(:, c) /= bodies%w(:, i))) call flight%release(i)
+      if (any(v_old(:, c) /= bodies%v(:, i)) .or. any(w_old(:, c) /= bodies%w(:, i))) then
+        call flight%release(i)
+        if (self%log_events .and. present(time)) call log_impulse(self, bodies, i, time, v_old(:, c), w_old(:, c))
+      end if
     end do
     ! A step of length zero that changed nothing cannot be followed by another.
     if (self%zero_steps > 1000) then
@@ -1242,6 +1253,26 @@ contains
                    ' (smallest separation '//str(self%stats%min_separation)//' m)')
     end if
   end subroutine stage_resolve
+
+  !> One row of the event log: body i's linear and angular impulse at an event at time.
+  subroutine log_impulse(self, bodies, i, time, v_old, w_old)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: time, v_old(3), w_old(3)
+    real(dp), allocatable :: grown(:, :)
+    if (.not. allocated(self%log_rows)) allocate (self%log_rows(8, 256))
+    if (self%n_log == size(self%log_rows, 2)) then
+      allocate (grown(8, 2*self%n_log))
+      grown(:, 1:self%n_log) = self%log_rows(:, 1:self%n_log)
+      call move_alloc(grown, self%log_rows)
+    end if
+    self%n_log = self%n_log + 1
+    self%log_rows(1, self%n_log) = time
+    self%log_rows(2, self%n_log) = real(bodies%gid(i), dp)
+    self%log_rows(3:5, self%n_log) = bodies%mass(i)*(bodies%v(:, i) - v_old)
+    self%log_rows(6:8, self%n_log) = bodies%world_inertia_apply(i, bodies%w(:, i)) - bodies%world_inertia_apply(i, w_old)
+  end subroutine log_impulse
 
   !> Keeps, of self%contacts(1:n_contacts), the contact groups (connected through moving
   !> bodies) that hold a moving body of an event pair: an impact is simultaneous with what
@@ -1357,6 +1388,32 @@ contains
     class(collision_stage_t), intent(inout) :: self
     self%n_events = 0
   end subroutine stage_drop_events
+
+  !> Room in the step's pair table for m pairs of n bodies (the local event loop fills the
+  !> table with an island's pairs, or one pair, itself).
+  subroutine stage_reserve_table(self, m, n)
+    class(collision_stage_t), intent(inout) :: self
+    integer, intent(in) :: m, n
+    integer :: c
+    c = max(m, 16)
+    if (allocated(self%pair_gap0)) then
+      if (size(self%pair_gap0) < m) deallocate (self%pair_gap0, self%pair_normal, self%pair_far, self%pair_in_pass)
+    end if
+    if (.not. allocated(self%pair_gap0)) allocate (self%pair_gap0(c), self%pair_normal(3, c), self%pair_far(c), &
+                                                   self%pair_in_pass(c))
+    if (allocated(self%pairs)) then
+      if (size(self%pairs, 2) < m) deallocate (self%pairs)
+    end if
+    if (.not. allocated(self%pairs)) allocate (self%pairs(2, c))
+    if (allocated(self%grid_margin)) then
+      if (size(self%grid_margin) < n) deallocate (self%grid_margin, self%turn)
+    end if
+    if (.not. allocated(self%grid_margin)) then
+      allocate (self%grid_margin(n), self%turn(n))
+      self%grid_margin = 0.0_dp
+      self%turn = 0.0_dp
+    end if
+  end subroutine stage_reserve_table
 
   subroutine stage_wake_all(self, bodies, flight)
     class(collision_stage_t), intent(inout) :: self

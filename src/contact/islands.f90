@@ -26,6 +26,8 @@ module islands
     real(dp) :: step = 0.0_dp            !< and ends at t_start + step [s]
     real(dp) :: pass_step = 0.0_dp       !< the step its contact pass was solved for [s] (>= step)
     logical :: live = .false.
+    integer, allocatable :: band_pairs(:, :)  !< its pass's pairs in the contact band (sleeping)
+    integer :: n_band_pairs = 0
   end type island_t
 
   !> The islands of the local loop, by slot; slots of ended islands are reused.
@@ -73,6 +75,8 @@ contains
           grown(k)%step = self%islands(k)%step
           grown(k)%pass_step = self%islands(k)%pass_step
           grown(k)%live = self%islands(k)%live
+          if (allocated(self%islands(k)%band_pairs)) call move_alloc(self%islands(k)%band_pairs, grown(k)%band_pairs)
+          grown(k)%n_band_pairs = self%islands(k)%n_band_pairs
         end do
         call move_alloc(grown, self%islands)
       end if
