@@ -41,6 +41,7 @@ module islands
     procedure :: init => table_init
     procedure :: add => table_add
     procedure :: remove => table_remove
+    procedure :: append => table_append
   end type island_table_t
 
 contains
@@ -91,6 +92,22 @@ contains
     self%islands(slot)%live = .true.
     self%n_live = self%n_live + 1
   end function table_add
+
+  !> More members for island slot (they join its current step).
+  subroutine table_append(self, slot, members)
+    class(island_table_t), intent(inout) :: self
+    integer, intent(in) :: slot, members(:)
+    integer, allocatable :: grown(:)
+    associate (isl => self%islands(slot))
+      if (isl%n + size(members) > size(isl%members)) then
+        allocate (grown(max(2*size(isl%members), isl%n + size(members))))
+        grown(1:isl%n) = isl%members(1:isl%n)
+        call move_alloc(grown, isl%members)
+      end if
+      isl%members(isl%n + 1:isl%n + size(members)) = members
+      isl%n = isl%n + size(members)
+    end associate
+  end subroutine table_append
 
   subroutine table_remove(self, slot)
     class(island_table_t), intent(inout) :: self

@@ -34,6 +34,7 @@ module resting_contact
   use nnls, only: solve_nnls
   use vector_ops, only: cross
   use sorting, only: sort_index_real, sort_index_keys, find_key
+  use warm_start_cache, only: warm_cache_t
   implicit none
   private
   public :: resting_contact_t, resting_stats_t
@@ -64,6 +65,12 @@ module resting_contact
     integer(i8), allocatable :: cache_keys(:, :) !< sorted keys of the last PGS contacts
     real(dp), allocatable :: cache_force(:, :)   !< their contact forces, world [N]
     integer :: n_cache = 0
+    !> The local event loop: warm starts kept across the passes of different islands
+    !> (persistent), each used if written at or after warm_since [s] (its previous step).
+    logical :: persistent = .false.
+    real(dp) :: warm_since = -huge(1.0_dp)
+    real(dp) :: warm_now = 0.0_dp         !< the time this pass's forces are written at [s]
+    type(warm_cache_t) :: warm
     real(dp), allocatable :: dv(:, :), dw(:, :)  !< velocity changes the last pass gave [m/s, rad/s]
     logical, allocatable :: involved(:)          !< work array of resolve: false between calls
     type(resting_stats_t) :: stats
@@ -80,6 +87,7 @@ contains
   subroutine resting_forget(self)
     class(resting_contact_t), intent(inout) :: self
     self%n_cache = 0
+    call self%warm%clear()
   end subroutine resting_forget
 
   !> The contact pass over the persistent contacts(1:n) (keys: pair_geometry's) for a step
@@ -106,7 +114,8 @@ contains
     type(contact_t), allocatable :: group(:)
     integer, allocatable :: group_start(:), group_list(:), members(:), order(:), moving(:), side(:, :)
     integer :: n_bodies, c, i, g, k, slot, n_new, n_groups, n_moving, m
-    real(dp) :: dv(3), down(3)
+    real(dp) :: dv(3), down(3), warm_force(3)
+    logical :: warm_found
 
     n_bodies = bodies%n_owned + bodies%n_ghost
     call ensure_involved(self, n_bodies)
@@ -160,6 +169,14 @@ contains
       allocate (impulse(3, size(members)))
       impulse = 0.0_dp
       do k = 1, size(members)
+        if (self%persistent) then
+          call self%warm%lookup(keys(:, members(k)), self%warm_since, warm_force, warm_found)
+          if (warm_found) then
+            impulse(:, k) = warm_force*h
+            self%stats%warm_starts = self%stats%warm_starts + 1
+          end if
+          cycle
+        end if
         slot = 0
         if (self%n_cache > 0) slot = find_key(self%cache_keys, self%n_cache, keys(:, members(k)))
         if (slot > 0) then
@@ -227,12 +244,20 @@ contains
       end do
       deallocate (impulse)
     end do
-    ! The new cache, sorted by key.
-    call sort_index_keys(new_keys(:, 1:n_new), order)
-    if (allocated(self%cache_keys)) deallocate (self%cache_keys, self%cache_force)
-    self%cache_keys = new_keys(:, order)
-    self%cache_force = new_force(:, order)
-    self%n_cache = n_new
+    if (self%persistent) then
+      ! kept beside the other islands' forces (entries older than this island's previous
+      ! step are of no use to anyone)
+      do k = 1, n_new
+        call self%warm%store(new_keys(:, k), new_force(:, k), self%warm_now, self%warm_since)
+      end do
+    else
+      ! The new cache, sorted by key.
+      call sort_index_keys(new_keys(:, 1:n_new), order)
+      if (allocated(self%cache_keys)) deallocate (self%cache_keys, self%cache_force)
+      self%cache_keys = new_keys(:, order)
+      self%cache_force = new_force(:, order)
+      self%n_cache = n_new
+    end if
 
     ! A body in a persistent contact keeps its new velocity and moves at it over the step
     ! (its gravity for the step is already in it): zero acceleration, released to re-anchor.

@@ -60,6 +60,7 @@ module event_loop
     integer(i8) :: output_evaluations = 0  !< ... for frames, history rows and checkpoints
     integer(i8) :: trajectory_changes = 0  !< anchors taken after a change (version increments)
     integer(i8) :: enters = 0            !< free pairs that came within reach of a contact pass
+    integer(i8) :: joins = 0             !< free bodies that joined an island at its next step
   end type event_stats_t
 
   type :: event_loop_t
@@ -127,6 +128,7 @@ contains
     self%margin = 0.5_dp*stage%box_size
     self%near = 0.25_dp*stage%box_size + 2.0_dp*self%band
     self%use_pass = norm2(gravity) > 0.0_dp
+    stage%resting%persistent = .true.
     if (allocated(stage%materials%restitution)) then
       if (size(stage%materials%restitution) > 0) self%use_pass = self%use_pass .or. &
                                                                 minval(stage%materials%restitution) <= 0.0_dp
@@ -190,7 +192,7 @@ contains
     n_seeds = 0
     do i = 1, n
       if (bodies%fixed(i)) cycle
-      if (has_pass_pair(self, bodies, shapes, flight, i, t)) then
+      if (has_pass_pair(self, stage, bodies, shapes, flight, i, t)) then
         n_seeds = n_seeds + 1
         seeds(n_seeds) = i
       end if
@@ -249,6 +251,7 @@ contains
     end do
     self%time = t_stop
   end subroutine loop_run_until
+
 
   !> Every moving body evaluated at t into bodies (frames, history rows, checkpoints).
   subroutine loop_synchronize(self, bodies, flight, t)
@@ -427,25 +430,27 @@ contains
   ! ---------------------------------------------------------------------------------------
   ! certificates
 
-  !> How far bodies a and b can close on each other over h by translation and turning
-  !> (the contact pass's reach: travel |v| h + |a| h^2 each, plus Omega R h) [m].
-  real(dp) function pass_reach(self, shapes, bodies, flight, a, b, h) result(reach)
+  !> How far bodies a and b can close on each other over h [m], from their relative motion:
+  !> (|v_a - v_b| + Omega_a R_a + Omega_b R_b) h, and gravity's impulse for the step where
+  !> only one of them moves (the contact pass gives it to every body it holds) g h^2. A
+  !> speculative contact of the pass is active only if its own feature gap above the target
+  !> plus tolerance closes by more than this in the step, so a pair further apart than
+  !> this cannot be held by the pass; bodies falling side by side are not within reach of
+  !> each other however fast they fall.
+  real(dp) function pass_closing(self, shapes, bodies, a, b, h) result(closing)
     type(event_loop_t), intent(in) :: self
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
-    type(free_flight_t), intent(in) :: flight
     integer, intent(in) :: a, b
     real(dp), intent(in) :: h
-    reach = travel(a) + travel(b)
-  contains
-    real(dp) function travel(k)
-      integer, intent(in) :: k
-      travel = 0.0_dp
-      if (bodies%fixed(k)) return
-      travel = norm2(bodies%v(:, k))*h + norm2(flight%acceleration(k, self%gravity))*h*h + &
-               turning_reach(shapes, bodies, k)*h
-    end function travel
-  end function pass_reach
+    real(dp) :: va(3), vb(3)
+    va = 0.0_dp
+    vb = 0.0_dp
+    if (.not. bodies%fixed(a)) va = bodies%v(:, a)
+    if (.not. bodies%fixed(b)) vb = bodies%v(:, b)
+    closing = (norm2(va - vb) + turning_reach(shapes, bodies, a) + turning_reach(shapes, bodies, b))*h
+    if (bodies%fixed(a) .neqv. bodies%fixed(b)) closing = closing + norm2(self%gravity)*h*h
+  end function pass_closing
 
   !> A lower bound on the gap of a and b (at their present states) from bounding volumes:
   !> their bounding spheres, and, against a static body, the moving one's sphere against
@@ -578,8 +583,14 @@ contains
     ! a free inelastic pair approaching the reach of a contact pass: an island step there
     if (self%use_pass .and. self%island_of(a) == 0 .and. self%island_of(b) == 0 .and. .not. self%pairs%in_pass(slot)) then
       if (stage%materials%pair_restitution(bodies%group_id(a), bodies%group_id(b)) <= 0.0_dp) then
-        d_enter = self%band + pass_reach(self, shapes, bodies, flight, a, b, self%dt_max)
+        ! (two steps ahead: a pair that waits for an island's next step is still within reach then)
+        d_enter = stage%target + stage%tolerance + pass_closing(self, shapes, bodies, a, b, 2.0_dp*self%dt_max)
         if (gap <= d_enter) then
+          if (t >= self%t_hard) then
+            ! at the next checkpoint or the end: the rebuild there takes it up
+            call set_action(self, bodies, slot, ACTION_NONE, far_future)
+            return
+          end if
           if (present(enter_now)) enter_now = .true.
           call set_action(self, bodies, slot, ACTION_ENTER, t)
           return
@@ -926,8 +937,8 @@ contains
     call self%islands%remove(id)
   end subroutine cut_island
 
-  !> The island's step ends at t as planned: members evaluated there, the pass's unused part
-  !> (a step cut by the grid) returned, sleeping, and the next step of those still awake.
+  !> The island's step ends at t as planned: its members finish the step, and those still
+  !> awake take the next one.
   subroutine island_end(self, stage, bodies, shapes, flight, island, t, err)
     type(event_loop_t), intent(inout) :: self
     type(collision_stage_t), intent(inout) :: stage
@@ -937,16 +948,41 @@ contains
     integer, intent(in) :: island
     real(dp), intent(in) :: t
     type(error_t), intent(inout) :: err
-    integer, allocatable :: members(:), band_pairs(:, :), asleep_now(:), awake(:)
-    integer :: k, n_asleep_now
+    integer, allocatable :: awake(:)
+    integer :: n_awake
+    allocate (awake(16))
+    n_awake = 0
+    call finish_island(self, stage, bodies, shapes, flight, island, t, awake, n_awake, err)
+    if (err%failed()) return
+    if (n_awake > 0) call island_step(self, stage, bodies, shapes, flight, awake(1:n_awake), t, .false., err)
+  end subroutine island_end
+
+  !> Island slot's step ends at t, its planned end: members evaluated there, the pass's
+  !> unused part (a step cut by the grid) returned, sleeping; the members still awake are
+  !> appended to list(n_list+1:).
+  subroutine finish_island(self, stage, bodies, shapes, flight, island, t, list, n_list, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: island
+    real(dp), intent(in) :: t
+    integer, allocatable, intent(inout) :: list(:)
+    integer, intent(inout) :: n_list
+    type(error_t), intent(inout) :: err
+    integer, allocatable :: members(:), band_pairs(:, :), asleep_now(:)
+    integer :: k, n_asleep_now, id
     real(dp) :: step, pass_step
-    associate (isl => self%islands%islands(island))
+    id = island     ! (island may be an element of island_of, which this changes)
+    associate (isl => self%islands%islands(id))
       members = isl%members(1:isl%n)
       step = isl%step
       pass_step = isl%pass_step
+      band_pairs = isl%band_pairs(:, 1:isl%n_band_pairs)
     end associate
-    band_pairs = self%islands%islands(island)%band_pairs(:, 1:self%islands%islands(island)%n_band_pairs)
-    call self%islands%remove(island)
+    call self%island_queue%remove(id)
+    call self%islands%remove(id)
     do k = 1, size(members)
       call sync(self, bodies, flight, members(k), t)
       self%island_of(members(k)) = 0
@@ -964,9 +1000,10 @@ contains
       call certify_pairs_of(self, stage, bodies, shapes, flight, asleep_now(1:n_asleep_now), t, err)
       if (err%failed()) return
     end if
-    awake = pack(members, .not. bodies%fixed(members))
-    if (size(awake) > 0) call island_step(self, stage, bodies, shapes, flight, awake, t, .false., err)
-  end subroutine island_end
+    do k = 1, size(members)
+      if (.not. bodies%fixed(members(k))) call push(list, n_list, members(k))
+    end do
+  end subroutine finish_island
 
   !> One island step from T: the seeds, and every body within reach of a contact pass of
   !> theirs (transitively: the closure, bodies of other islands cutting those islands'
@@ -975,7 +1012,8 @@ contains
   !> of the bodies joined by pass pairs, each with its clock, and every pair of theirs
   !> certified over the step. keep_seeds: the seeds stay members for this step even with
   !> nothing within reach (they came here because a pair of theirs is about to be).
-  recursive subroutine island_step(self, stage, bodies, shapes, flight, seeds, T, keep_seeds, err)
+  !> no_wait, when present and true: islands reached are cut, never waited for.
+  recursive subroutine island_step(self, stage, bodies, shapes, flight, seeds, T, keep_seeds, err, no_wait)
     type(event_loop_t), intent(inout) :: self
     type(collision_stage_t), intent(inout) :: stage
     type(bodies_t), intent(inout) :: bodies
@@ -985,13 +1023,16 @@ contains
     real(dp), intent(in) :: T
     logical, intent(in) :: keep_seeds
     type(error_t), intent(inout) :: err
+    logical, intent(in), optional :: no_wait
     integer, allocatable :: members(:), table(:), woken(:), pass_pairs(:, :), label(:), kept(:), changed(:), &
                             in_island(:), first_of(:), by_label(:), fill(:), slot_of(:)
     logical, allocatable :: relevant(:)
     integer :: n_members, n_table, k, q, m, i, stamp, w, n_woken, n_pass, n_components, c, island, n_kept, &
                n_changed
     real(dp) :: h0, h, h2, lb, dt, gap, normal(3), reach
-    logical :: low
+    logical :: low, can_wait, several, wait
+    integer :: wait_for
+    real(dp) :: t_wait
     self%stats%island_steps = self%stats%island_steps + 1
     h0 = min(self%dt_max, self%t_hard - T)
     if (h0 <= 0.0_dp) then
@@ -1002,6 +1043,17 @@ contains
     allocate (members(16), table(16))
     n_members = 0
     n_table = 0
+    ! Seeds none of which a pass holds (free bodies about to land) may wait for an island
+    ! they reach instead of cutting its step.
+    can_wait = .true.
+    if (present(no_wait)) can_wait = .not. no_wait
+    several = .false.
+    do k = 1, size(seeds)
+      if (.not. bodies%fixed(seeds(k))) then
+        if (flight%loaded(seeds(k))) can_wait = .false.
+      end if
+    end do
+    wait_for = 0
     ! seeds near the end of their margins are placed again first, so their pairs are complete
     ! (members that join later are placed again after the step: placing drops pairs, which
     ! must not happen while the table holds them)
@@ -1036,7 +1088,7 @@ contains
           if (size(relevant) < n_table) call grow_logical(relevant)
           relevant(n_table) = .false.
           ! gap at T: closest points where the bounding volumes cannot settle it
-          reach = pass_reach(self, shapes, bodies, flight, i, m, h)
+          reach = pass_closing(self, shapes, bodies, i, m, h)
           call far_bound(self, shapes, bodies, flight, i, m, self%band + reach, lb, dt)
           self%pairs%t_query(q) = T
           if (lb > self%band + reach .or. (bodies%fixed(i) .and. bodies%fixed(m))) then
@@ -1055,8 +1107,10 @@ contains
             if (gap <= self%band .or. low) then
               relevant(n_table) = .true.
             else if (stage%materials%pair_restitution(bodies%group_id(i), bodies%group_id(m)) <= 0.0_dp) then
-              relevant(n_table) = gap - self%band <= reach
+              relevant(n_table) = gap - (stage%target + stage%tolerance) <= reach
             end if
+            ! what the pass may not hold it does not see (far), so its bodies stay apart from it
+            if (.not. relevant(n_table)) self%pairs%far(q) = .true.
             if (relevant(n_table)) then
               if (bodies%asleep(m) .and. .not. bodies%fixed(i) .and. reaches(i, gap, normal)) then
                 n_woken = 0
@@ -1078,6 +1132,25 @@ contains
         q = self%pairs%next_of(q, i)
       end do
     end do
+    if (wait_for > 0) then
+      ! Free bodies that reached an island wait for its next step if nothing of theirs can
+      ! touch before it (checked on every pair measured above); otherwise the islands
+      ! reached are cut after all, and this step taken with them.
+      wait = .not. several
+      t_wait = self%islands%islands(wait_for)%t_start + self%islands%islands(wait_for)%step - T
+      do k = 1, n_table
+        if (.not. wait) exit
+        q = table(k)
+        if (self%pairs%gap(q) - (stage%target + stage%tolerance) <= &
+            pass_closing(self, shapes, bodies, self%pairs%a(q), self%pairs%b(q), t_wait)) wait = .false.
+      end do
+      if (wait) then
+        call join_island(self, stage, bodies, shapes, flight, wait_for, members(1:n_members), T, err)
+      else
+        call island_step(self, stage, bodies, shapes, flight, seeds, T, keep_seeds, err, no_wait=.true.)
+      end if
+      return
+    end if
     self%stats%body_steps = self%stats%body_steps + n_members
     ! the table: every pair of a member, by global ids; the pass's travel bounds over h
     call sort_table_impl(self, bodies, table, relevant, n_table)
@@ -1094,6 +1167,9 @@ contains
       end do
     end do
     call stage%correct_distances(bodies, shapes, flight)
+    ! warm starts: the forces of the members' previous steps, whichever islands solved them
+    stage%resting%warm_now = T
+    stage%resting%warm_since = T - 1.01_dp*self%dt_max
     call stage%contact_pass(bodies, shapes, flight, h, self%gravity, err, members=members(1:n_members))
     if (err%failed()) return
     h2 = stage%limit_step(bodies, flight, self%gravity, h, members(1:n_members))
@@ -1124,13 +1200,26 @@ contains
         self%mark(seeds(k)) = stamp
       end do
     end if
-    allocate (kept(n_members))
+    allocate (kept(n_members + 2*n_table))
     n_kept = 0
     do k = 1, n_members
       i = members(k)
       if (bodies%fixed(i) .or. self%mark(i) /= stamp) cycle
       n_kept = n_kept + 1
       kept(n_kept) = i
+    end do
+    ! (and a free partner the pass held after all, so that its load ends with a step: the
+    ! pass sees only the pairs the closure found within reach, whose bodies are members, so
+    ! this is a guard)
+    do k = 1, n_table
+      do c = 1, 2
+        i = stage%pairs(c, k)
+        if (bodies%fixed(i) .or. self%mark(i) == stamp) cycle
+        if (self%island_of(i) /= 0 .or. flight%is_anchored(i) .or. .not. flight%loaded(i)) cycle
+        self%mark(i) = stamp
+        n_kept = n_kept + 1
+        kept(n_kept) = i
+      end do
     end do
     ! new trajectories: whatever the correction or the pass changed, and the members that
     ! leave (their loads were cleared by the pass)
@@ -1234,6 +1323,22 @@ contains
       call sync(self, bodies, flight, body, T)
       old = self%island_of(body)
       if (old > 0) then
+        if (self%islands%islands(old)%t_start + self%islands%islands(old)%step <= T) then
+          ! its step ends now too: finished as planned, it joins
+          call finish_island(self, stage, bodies, shapes, flight, old, T, members, n_members, err)
+          call mark_all()
+          return
+        end if
+      end if
+      if (old > 0 .and. can_wait) then
+        ! free bodies reaching an island may wait for its next step and join it there: an
+        ! island that bodies land on one by one is not cut by each of them
+        if (wait_for == 0) wait_for = old
+        if (old /= wait_for) several = .true.
+        self%mark(body) = 0     ! (not a member: may be reached again)
+        return
+      end if
+      if (old > 0) then
         ! a body of another island: that island's step ends here, all of it joins
         call cut_island(self, stage, bodies, flight, old, T, members, n_members)
         ! (cut_island appended its members; mark them)
@@ -1249,6 +1354,29 @@ contains
       end do
     end subroutine mark_all
   end subroutine island_step
+
+  !> Free bodies join island slot (mid-step) as members that fly free until its step ends,
+  !> when its next step takes them in; their pairs certified up to there.
+  subroutine join_island(self, stage, bodies, shapes, flight, island, joiners, t, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: island, joiners(:)
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer :: k
+    self%stats%joins = self%stats%joins + size(joiners)
+    associate (isl => self%islands%islands(island))
+      do k = 1, size(joiners)
+        self%island_of(joiners(k)) = island
+        self%expiry(joiners(k)) = isl%t_start + isl%step
+      end do
+    end associate
+    call self%islands%append(island, joiners)
+    call certify_pairs_of(self, stage, bodies, shapes, flight, joiners, t, err)
+  end subroutine join_island
 
   !> After an impact without contact passes: the bodies that changed get their pairs
   !> certified again and their crossings rescheduled.
@@ -1373,32 +1501,28 @@ contains
   end subroutine grow_logical
 
   !> Does body i (at t) have a pair within reach of a contact pass over dt_max?
-  logical function has_pass_pair(self, bodies, shapes, flight, i, t) result(has)
+  logical function has_pass_pair(self, stage, bodies, shapes, flight, i, t) result(has)
     type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(in) :: stage
     type(bodies_t), intent(inout) :: bodies
     type(shape_library_t), intent(in) :: shapes
     type(free_flight_t), intent(inout) :: flight
     integer, intent(in) :: i
     real(dp), intent(in) :: t
     integer :: q, m
-    real(dp) :: reach, lb, dt
+    real(dp) :: closing
     has = .false.
     q = self%pairs%head(i)
     do while (q > 0)
       m = self%pairs%partner(q, i)
       call sync(self, bodies, flight, m, t)
-      reach = pass_reach(self, shapes, bodies, flight, i, m, self%dt_max)
-      call far_bound(self, shapes, bodies, flight, i, m, self%band + reach, lb, dt)
-      if (lb <= self%band + reach) then
-        if (.not. self%pairs%far(q)) then
-          if (self%pairs%gap(q) <= self%band + reach) then
-            has = .true.
-            return
-          end if
-        else
-          has = .true.
-          return
-        end if
+      ! (certify measured every pair near enough: far ones are not within reach)
+      if (.not. self%pairs%far(q)) then
+        closing = pass_closing(self, shapes, bodies, i, m, self%dt_max)
+        if (self%pairs%gap(q) <= self%band) has = .true.
+        if (stage%materials%pair_restitution(bodies%group_id(i), bodies%group_id(m)) <= 0.0_dp .and. &
+            self%pairs%gap(q) - (stage%target + stage%tolerance) <= closing) has = .true.
+        if (has) return
       end if
       q = self%pairs%next_of(q, i)
     end do

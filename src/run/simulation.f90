@@ -589,6 +589,18 @@ contains
       self%collisions%stats%contacts, ' contact points, ', self%collisions%impulses%groups, ' impulse groups, ', &
       self%collisions%stats%corrections, ' distance corrections, '// &
       str(self%collisions%stats%corrections_capped)//' of them cut to half the band)'
+    if (self%local) then
+      associate (ev => self%events%stats)
+        write (*, '(a)') '  local events         '//str(ev%impacts)//' impacts, '//str(ev%island_steps)//' island steps ('// &
+          str(ev%body_steps)//' body-steps, '//str(ev%island_cuts)//' cut by impacts, '//str(ev%joins)// &
+          ' bodies waited to join), '//str(ev%enters)//' pairs came within reach of a pass'
+        write (*, '(a)') '  pair certificates    '//str(ev%certificates)//' ('//str(ev%far_certificates)// &
+          ' from bounding volumes), '//str(ev%crossings)//' box crossings'
+        write (*, '(a)') '  body updates         '//str(ev%evaluations)//' for events, '//str(ev%output_evaluations)// &
+          ' for outputs, '//str(ev%trajectory_changes)//' trajectory changes; '// &
+          str(self%events%bodies_unchanged(self%bodies))//' bodies never changed trajectory'
+      end associate
+    end if
     write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', self%collisions%stats%pair_tests, ' pair queries, ', &
       self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, &
       ' capped, '//str(self%collisions%stats%plane_skips)//' started from a second-order safe time)'
