@@ -8,10 +8,13 @@ module input_config
   implicit none
   private
   public :: run_config_t, integrator_config_t, contact_config_t, output_config_t, body_spec_t, &
-            deck_t, ROTATION_NEWMARK, ROTATION_EXACT
+            deck_t, ROTATION_NEWMARK, ROTATION_EXACT, EVENTS_AUTO, EVENTS_LOCAL, EVENTS_GLOBAL
 
   character(len=*), parameter :: ROTATION_NEWMARK = 'newmark'
   character(len=*), parameter :: ROTATION_EXACT = 'exact'
+  character(len=*), parameter :: EVENTS_AUTO = 'auto'
+  character(len=*), parameter :: EVENTS_LOCAL = 'local'
+  character(len=*), parameter :: EVENTS_GLOBAL = 'global'
 
   type :: run_config_t
     character(len=256) :: title = 'ricochet run'
@@ -27,6 +30,10 @@ module input_config
     integer :: rotation_max_iterations = 50
     !> 'exact' (closed-form torque-free flight, default: docs/rotation.md, docs/benchmarks.md) or 'newmark'
     character(len=16) :: rotation = ROTATION_EXACT
+    !> 'local': event-driven loop, bodies evaluated from anchors, pair bounds in a queue;
+    !> 'global': every event a global step (the reference); 'auto': local with exact
+    !> rotation, global with newmark
+    character(len=16) :: events = EVENTS_AUTO
   end type integrator_config_t
 
   type :: contact_config_t
