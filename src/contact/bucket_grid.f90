@@ -26,6 +26,7 @@ module bucket_grid
   use kinds, only: dp, i8
   use, intrinsic :: iso_fortran_env, only: int8
   use error_status, only: error_t, ERR_INPUT
+  use sorting, only: select_kth
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
   private
@@ -624,43 +625,6 @@ contains
     end do
     self%n_nodes = nd
   end subroutine build_hierarchy
-
-  !> Partial sort (Hoare quickselect): afterwards key(1:k) <= key(k+1:), ids moved with keys.
-  pure subroutine select_kth(ids, key, k)
-    integer, intent(inout) :: ids(:)
-    real(dp), intent(inout) :: key(:)
-    integer, intent(in) :: k
-    integer :: lo, hi, i, j, ti
-    real(dp) :: pivot, tk
-    lo = 1
-    hi = size(key)
-    do while (hi > lo)
-      pivot = key((lo + hi)/2)
-      i = lo
-      j = hi
-      do while (i <= j)
-        do while (key(i) < pivot)
-          i = i + 1
-        end do
-        do while (key(j) > pivot)
-          j = j - 1
-        end do
-        if (i <= j) then
-          tk = key(i); key(i) = key(j); key(j) = tk
-          ti = ids(i); ids(i) = ids(j); ids(j) = ti
-          i = i + 1
-          j = j - 1
-        end if
-      end do
-      if (k <= j) then
-        hi = j
-      else if (k >= i) then
-        lo = i
-      else
-        exit
-      end if
-    end do
-  end subroutine select_kth
 
   pure logical function boxes_overlap(al, au, bl, bu)
     real(dp), intent(in) :: al(3), au(3), bl(3), bu(3)

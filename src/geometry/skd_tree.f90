@@ -24,6 +24,7 @@ module skd_tree
   use mesh, only: mesh_t
   use error_status, only: error_t, ERR_MESH
   use string_utils, only: str
+  use sorting, only: select_kth
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
   private
@@ -277,43 +278,6 @@ contains
     v(:, 2) = v(:, 2)/norm2(v(:, 2))
     v(:, 3) = cross(v(:, 1), v(:, 2))
   end subroutine jacobi_eigenvectors
-
-  !> Reorders perm(lo:hi) so perm(kth) has the kth smallest key and no larger one sits
-  !> before it (Hoare's quickselect with a middle pivot).
-  subroutine select_kth(perm, key, lo_in, hi_in, kth)
-    integer, intent(inout) :: perm(:)
-    real(dp), intent(in) :: key(:)
-    integer, intent(in) :: lo_in, hi_in, kth
-    integer :: lo, hi, i, j, tmp
-    real(dp) :: pivot
-    lo = lo_in
-    hi = hi_in
-    do while (lo < hi)
-      pivot = key(perm((lo + hi)/2))
-      i = lo
-      j = hi
-      do while (i <= j)
-        do while (key(perm(i)) < pivot)
-          i = i + 1
-        end do
-        do while (key(perm(j)) > pivot)
-          j = j - 1
-        end do
-        if (i <= j) then
-          tmp = perm(i); perm(i) = perm(j); perm(j) = tmp
-          i = i + 1
-          j = j - 1
-        end if
-      end do
-      if (kth <= j) then
-        hi = j
-      else if (kth >= i) then
-        lo = i
-      else
-        exit
-      end if
-    end do
-  end subroutine select_kth
 
   !> Each vertex goes to the first slot that has it. Each edge goes to the first slot that
   !> has it; it is sharp unless exactly two faces share it and they are coplanar.

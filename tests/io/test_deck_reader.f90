@@ -65,7 +65,7 @@ contains
       '&run title = ''Full "deck", it''''s'', t_end = 2.5, dt_max = 1e-3,', &      ! 2
       '     gravity(3) = -9.81 /  ! only z', &                                    ! 3
       '&integrator newmark_beta = 0.3, newmark_gamma = 0.55, rotation = ''EXACT'',', &
-      '  rotation_tolerance = 1d-12, rotation_max_iterations = 20 /', &          ! 5
+      '  rotation_tolerance = 1d-12, rotation_max_iterations = 20, events = '' Global'' /', &   ! 5
       '&contact restitution = 0.8, friction = 0.3, min_separation = 1e-5 / &output dir = ''out/a'',', &
       '  interval = 0.05, checkpoint_interval = 1.0, progress_interval = 2 /', &   ! 7
       '&BODY name = ''ground'', shape = ''box'', size = 10, 10, 1, fixed = .true.,', &
@@ -88,6 +88,7 @@ contains
     call check(deck%integrator%rotation == 'exact', 'rotation folded to lower case')
     call check(deck%integrator%rotation_tolerance == 1.0e-12_dp, 'rotation_tolerance (d exponent)')
     call check(deck%integrator%rotation_max_iterations == 20, 'rotation_max_iterations')
+    call check(deck%integrator%events == 'global', 'events: leading blank dropped, folded to lower case')
     call check(deck%contact%restitution == 0.8_dp .and. deck%contact%friction == 0.3_dp .and. &
                deck%contact%min_separation == 1.0e-5_dp, 'contact')
     call check(deck%output%dir == cwd//'/sub/out/a', 'output dir resolved: '//trim(deck%output%dir))
@@ -147,8 +148,8 @@ contains
     call check(deck%run%title == 'ricochet run' .and. all(deck%run%gravity == 0.0_dp), 'run defaults')
     call check(deck%integrator%newmark_beta == 0.25_dp .and. deck%integrator%newmark_gamma == 0.5_dp .and. &
                deck%integrator%rotation_tolerance == 1.0e-14_dp .and. &
-               deck%integrator%rotation_max_iterations == 50 .and. deck%integrator%rotation == 'exact', &
-               'integrator defaults')
+               deck%integrator%rotation_max_iterations == 50 .and. deck%integrator%rotation == 'exact' .and. &
+               deck%integrator%events == 'auto', 'integrator defaults')
     call check(deck%contact%restitution == 0.5_dp .and. deck%contact%friction == 0.0_dp .and. &
                deck%contact%min_separation == DECK_AUTO .and. deck%contact%rest_speed == DECK_AUTO, &
                'contact defaults (min_separation, rest_speed auto)')
@@ -191,7 +192,8 @@ contains
                first%integrator%newmark_gamma == second%integrator%newmark_gamma .and. &
                first%integrator%rotation_tolerance == second%integrator%rotation_tolerance .and. &
                first%integrator%rotation_max_iterations == second%integrator%rotation_max_iterations .and. &
-               first%integrator%rotation == second%integrator%rotation, 'round trip &integrator')
+               first%integrator%rotation == second%integrator%rotation .and. &
+               first%integrator%events == second%integrator%events, 'round trip &integrator')
     call check(first%contact%restitution == second%contact%restitution .and. &
                first%contact%friction == second%contact%friction .and. &
                first%contact%min_separation == second%contact%min_separation .and. &
@@ -513,6 +515,12 @@ contains
       [character(len=60) :: 'bad_gamma.nml:2:', '&integrator:', 'newmark_gamma must be in [0.5, 1]', 'unstable'])
     call bad('bad_rotation.nml', [character(len=100) :: run, ball, '&integrator rotation = ''euler'' /'], &
       [character(len=60) :: 'bad_rotation.nml:3:', '&integrator:', 'unknown rotation ''euler'''])
+    call bad('bad_events.nml', [character(len=100) :: run, ball, '&integrator rotation = ''exact'',', &
+      '  events = ''Fast'' /'], &
+      [character(len=60) :: 'bad_events.nml:4:', '&integrator:', 'unknown events ''Fast''', &
+       '(known: ''auto'', ''local'', ''global'')'])
+    call bad('bad_events_type.nml', [character(len=100) :: run, ball, '&integrator events = local /'], &
+      [character(len=60) :: 'bad_events_type.nml:3:', '&integrator:', 'events needs quoted text'])
     call bad('bad_iterations.nml', [character(len=100) :: run, ball, '&integrator rotation_max_iterations = 0 /'], &
       [character(len=60) :: 'bad_iterations.nml:3:', '&integrator:', 'rotation_max_iterations must be >= 1'])
     call bad('bad_integer.nml', [character(len=100) :: run, &

@@ -3,6 +3,7 @@ traceback: decks, meshes, checkpoints and the command line.
 
 Usage: check_errors.py EXE WORKDIR DATA_DIR"""
 import os
+import re
 import subprocess
 import sys
 
@@ -38,6 +39,9 @@ expect_error([deck("typo.nml", good_run + "&body name = 'ball', shape = 'sphere'
              ["typo.nml:2", "&body #1 'ball'", "radus"], "unknown variable")
 expect_error([deck("nan.nml", "&run t_end = nan, dt_max = 0.1 /\n&body shape = 'sphere', radius = 1, mass = 1 /\n")],
              ["nan.nml:1", "&run", "t_end"], "NaN")
+expect_error([deck("events.nml", good_run + "&integrator events = 'sometimes' /\n"
+                   "&body shape = 'sphere', radius = 1, mass = 1 /\n")],
+             ["events.nml:2", "&integrator", "events", "'sometimes'", "'auto', 'local', 'global'"], "unknown events")
 expect_error([deck("open.nml", good_run + f"&body name = 'bunny', shape = 'mesh', mesh_file = '{data}/meshes/stanford-bunny.obj', mass = 1.0 /\n")],
              ["stanford-bunny.obj", "open", "223 boundary edge", "&body #1 'bunny'"], "open mesh")
 expect_error([deck("suzanne.nml", good_run + f"&body name = 'monkey', shape = 'mesh', mesh_file = '{data}/meshes/suzanne.obj', mass = 1.0 /\n")],
@@ -75,6 +79,8 @@ c.check(proc.returncode == 0, f"touching spheres are a valid start (Newton's cra
 proc = subprocess.run([exe, "--check", ok_deck], capture_output=True, text=True, cwd=work)
 c.check(proc.returncode == 0 and "&integrator" in proc.stdout and "newmark_beta" in proc.stdout,
         "--check prints the effective deck with defaults filled in")
+c.check(re.search(r"^\s*events\s*= 'auto'$", proc.stdout, re.M) is not None,
+        "--check prints &integrator events (default 'auto')")
 effective = deck("effective.nml", proc.stdout)
 proc = subprocess.run([exe, "--check", effective], capture_output=True, text=True, cwd=work)
 c.check(proc.returncode == 0, f"the effective deck is itself a valid deck: {proc.stderr.strip()}")

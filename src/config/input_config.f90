@@ -30,6 +30,9 @@ module input_config
     integer :: rotation_max_iterations = 50
     !> 'exact' (closed-form torque-free flight, default: docs/rotation.md, docs/benchmarks.md) or 'newmark'
     character(len=16) :: rotation = ROTATION_EXACT
+    !> 'local': event-driven loop, bodies evaluated from anchors, pair bounds in a queue;
+    !> 'global': every event a global step (the reference); 'auto': local with exact
+    !> rotation, global with newmark
     character(len=16) :: events = EVENTS_AUTO
   end type integrator_config_t
 

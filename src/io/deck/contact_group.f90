@@ -1,0 +1,100 @@
+!> The &contact group of a deck (docs/input.md): restitution, friction, minimum separation,
+!> resting and sleeping thresholds. Its variables, the namelist read with the defaults
+!> reset, its rules, and its text in the effective deck.
+module contact_group
+  use kinds, only: dp
+  use error_status, only: error_t
+  use input_config, only: contact_config_t
+  use namelist_source, only: DECK_AUTO, V_REAL, var_spec_t, source_t, group_t, group_input_t, open_group, &
+                             prepare_group, translate_read_error, require_finite, fail, real_text, put_real
+  implicit none
+  private
+  public :: read_contact_group, write_contact_group
+
+  type(var_spec_t), parameter :: contact_vars(6) = [ &
+    var_spec_t('restitution', V_REAL, 1, 0), var_spec_t('friction', V_REAL, 1, 0), &
+    var_spec_t('min_separation', V_REAL, 1, 0), var_spec_t('rest_speed', V_REAL, 1, 0), &
+    var_spec_t('sleep_speed', V_REAL, 1, 0), var_spec_t('sleep_time', V_REAL, 1, 0)]
+
+contains
+
+  subroutine read_contact_group(src, group, config, err)
+    type(source_t), intent(in) :: src
+    type(group_t), intent(in) :: group
+    type(contact_config_t), intent(out) :: config
+    type(error_t), intent(inout) :: err
+    type(group_input_t) :: g
+    real(dp) :: restitution, friction, min_separation, rest_speed, sleep_speed, sleep_time
+    integer :: ios
+    character(len=512) :: msg
+    namelist /contact/ restitution, friction, min_separation, rest_speed, sleep_speed, sleep_time
+
+    call open_group(src, group, contact_vars, '&contact', g)
+    call prepare_group(g, err)
+    if (err%failed()) return
+    restitution = config%restitution
+    friction = config%friction
+    min_separation = config%min_separation
+    rest_speed = config%rest_speed
+    sleep_speed = config%sleep_speed
+    sleep_time = config%sleep_time
+    msg = ''
+    read (g%text, nml=contact, iostat=ios, iomsg=msg)
+    if (ios /= 0) then
+      call translate_read_error(g, ios, msg, err)
+      return
+    end if
+    config%restitution = restitution
+    config%friction = friction
+    config%min_separation = min_separation
+    config%rest_speed = rest_speed
+    config%sleep_speed = sleep_speed
+    config%sleep_time = sleep_time
+
+    call require_finite(g, err, 'restitution', [restitution])
+    call require_finite(g, err, 'friction', [friction])
+    call require_finite(g, err, 'min_separation', [min_separation])
+    call require_finite(g, err, 'rest_speed', [rest_speed])
+    call require_finite(g, err, 'sleep_speed', [sleep_speed])
+    call require_finite(g, err, 'sleep_time', [sleep_time])
+    if (err%failed()) return
+    if (restitution < 0.0_dp .or. restitution > 1.0_dp) then
+      call fail(g, err, 'restitution', 'restitution must be in [0, 1], got '//real_text(restitution))
+    else if (friction < 0.0_dp) then
+      call fail(g, err, 'friction', 'friction must be >= 0, got '//real_text(friction))
+    else if (min_separation /= DECK_AUTO .and. min_separation <= 0.0_dp) then
+      ! 0 would let the time of contact collapse to zero (DEVELOPERS.md, the method).
+      call fail(g, err, 'min_separation', 'min_separation must be > 0 m, or -1 for auto, got '// &
+                real_text(min_separation))
+    else if (rest_speed /= DECK_AUTO .and. rest_speed < 0.0_dp) then
+      call fail(g, err, 'rest_speed', 'rest_speed must be >= 0 m/s, or -1 for auto, got '//real_text(rest_speed))
+    else if (sleep_speed /= DECK_AUTO .and. sleep_speed < 0.0_dp) then
+      call fail(g, err, 'sleep_speed', 'sleep_speed must be >= 0 m/s (0: never sleep), or -1 for auto, got '// &
+                real_text(sleep_speed))
+    else if (sleep_time <= 0.0_dp) then
+      call fail(g, err, 'sleep_time', 'sleep_time must be > 0 s, got '//real_text(sleep_time))
+    end if
+  end subroutine read_contact_group
+
+  !> The group in the effective deck: every variable, defaults filled in, auto values as -1.
+  subroutine write_contact_group(config, unit)
+    type(contact_config_t), intent(in) :: config
+    integer, intent(in) :: unit
+    character(len=:), allocatable :: note
+    write (unit, '(a)') '&contact'
+    call put_real(unit, 'restitution', [config%restitution], '')
+    call put_real(unit, 'friction', [config%friction], '')
+    note = '[m]'
+    if (config%min_separation == DECK_AUTO) note = '[m] -1: auto, 1e-4 of the smallest body size'
+    call put_real(unit, 'min_separation', [config%min_separation], note)
+    note = '[m/s] below it impacts are inelastic'
+    if (config%rest_speed == DECK_AUTO) note = '[m/s] -1: auto, max(2 |g| dt_max, sqrt(2 |g| min_separation))'
+    call put_real(unit, 'rest_speed', [config%rest_speed], note)
+    note = '[m/s] 0: never sleep'
+    if (config%sleep_speed == DECK_AUTO) note = '[m/s] -1: auto, rest_speed/100'
+    call put_real(unit, 'sleep_speed', [config%sleep_speed], note)
+    call put_real(unit, 'sleep_time', [config%sleep_time], '[s]')
+    write (unit, '(a)') '/'
+  end subroutine write_contact_group
+
+end module contact_group

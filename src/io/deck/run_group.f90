@@ -1,0 +1,84 @@
+!> The &run group of a deck (docs/input.md): title, end time, largest step, gravity. Its
+!> variables, the namelist read with the defaults reset, its rules, and its text in the
+!> effective deck.
+module run_group
+  use kinds, only: dp
+  use error_status, only: error_t
+  use input_config, only: run_config_t
+  use namelist_source, only: V_REAL, V_CHARACTER, var_spec_t, source_t, group_t, group_input_t, open_group, &
+                             prepare_group, translate_read_error, require_finite, given, fail, real_text, &
+                             put_real, put_text
+  implicit none
+  private
+  public :: read_run_group, write_run_group
+
+  type(run_config_t), parameter :: run_default = run_config_t()
+
+  type(var_spec_t), parameter :: run_vars(4) = [ &
+    var_spec_t('title', V_CHARACTER, 1, len(run_default%title)), var_spec_t('t_end', V_REAL, 1, 0), &
+    var_spec_t('dt_max', V_REAL, 1, 0), var_spec_t('gravity', V_REAL, 3, 0)]
+
+contains
+
+  subroutine read_run_group(src, group, config, err)
+    type(source_t), intent(in) :: src
+    type(group_t), intent(in) :: group
+    type(run_config_t), intent(out) :: config
+    type(error_t), intent(inout) :: err
+    type(group_input_t) :: g
+    character(len=len(config%title)) :: title
+    real(dp) :: t_end, dt_max, gravity(3)
+    integer :: ios
+    character(len=512) :: msg
+    namelist /run/ title, t_end, dt_max, gravity
+
+    call open_group(src, group, run_vars, '&run', g)
+    call prepare_group(g, err)
+    if (err%failed()) return
+    ! Defaults reset before the read: config is intent(out), so it holds the type's defaults.
+    title = config%title
+    t_end = config%t_end
+    dt_max = config%dt_max
+    gravity = config%gravity
+    msg = ''
+    read (g%text, nml=run, iostat=ios, iomsg=msg)
+    if (ios /= 0) then
+      call translate_read_error(g, ios, msg, err)
+      return
+    end if
+    config%title = title
+    config%t_end = t_end
+    config%dt_max = dt_max
+    config%gravity = gravity
+
+    call require_finite(g, err, 't_end', [t_end])
+    call require_finite(g, err, 'dt_max', [dt_max])
+    call require_finite(g, err, 'gravity', gravity)
+    if (err%failed()) return
+    if (.not. given(g, 't_end')) then
+      call fail(g, err, '', 't_end is required (end time of the run [s])')
+    else if (t_end <= 0.0_dp) then
+      call fail(g, err, 't_end', 't_end must be > 0 s, got '//real_text(t_end))
+    else if (.not. given(g, 'dt_max')) then
+      call fail(g, err, '', 'dt_max is required (largest time step [s])')
+    else if (dt_max <= 0.0_dp) then
+      call fail(g, err, 'dt_max', 'dt_max must be > 0 s, got '//real_text(dt_max))
+    else if (dt_max > t_end) then
+      call fail(g, err, 'dt_max', 'dt_max = '//real_text(dt_max)//' s must not exceed t_end = '// &
+                real_text(t_end)//' s')
+    end if
+  end subroutine read_run_group
+
+  !> The group in the effective deck: every variable, defaults filled in.
+  subroutine write_run_group(config, unit)
+    type(run_config_t), intent(in) :: config
+    integer, intent(in) :: unit
+    write (unit, '(a)') '&run'
+    call put_text(unit, 'title', config%title)
+    call put_real(unit, 't_end', [config%t_end], '[s]')
+    call put_real(unit, 'dt_max', [config%dt_max], '[s]')
+    call put_real(unit, 'gravity', config%gravity, '[m/s^2]')
+    write (unit, '(a)') '/'
+  end subroutine write_run_group
+
+end module run_group
