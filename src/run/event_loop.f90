@@ -595,8 +595,13 @@ contains
           call set_action(self, bodies, slot, ACTION_ENTER, t)
           return
         end if
+        ! Due when the bound may bring it to the reach of one step, not two: the pair is
+        ! then certainly within d_enter or has not approached as fast as the bound allows,
+        ! and every certificate moves time on by a finite part of the slack (aiming at
+        ! d_enter itself, a loose bound would approach it in ever smaller steps).
         bound = enter_bound(normal)
-        due = t + time_to_close(bound, gap - d_enter)
+        due = t + time_to_close(bound, gap - (stage%target + stage%tolerance + &
+                                              pass_closing(self, shapes, bodies, a, b, self%dt_max)))
         if (due < horizon) then
           call set_action(self, bodies, slot, ACTION_ENTER, due)
         else

@@ -21,6 +21,7 @@ module simulation
   use frame_writer, only: frame_writer_t
   use checkpoint_meta, only: checkpoint_meta_t, bodies_checksum
   use checkpoint_io, only: write_checkpoint, read_checkpoint, check_checkpoint_matches
+  use event_log_writer, only: write_event_log
   implicit none
   private
   public :: simulation_t
@@ -115,7 +116,8 @@ contains
       'ricochet: warning: on several ranks, collisions between bodies of different ranks are not '// &
       'detected yet (bodies are split by id, no halo exchange): run collision scenes on one rank'
 
-    ! The event loop: local (default with exact rotation on one rank) or global steps.
+    self%collisions%log_events = deck%output%event_log
+    ! The event loop: local (default with exact rotation) or global steps.
     select case (trim(deck%integrator%events))
     case (EVENTS_LOCAL)
       if (deck%integrator%rotation /= ROTATION_EXACT) then
@@ -361,6 +363,7 @@ contains
       call progress(self, par)
     end do
     call self%write_checkpoint_now(par, 'checkpoint_final', err)
+    if (err%ok()) call write_events(self, par, err)
   end subroutine simulation_run
 
   !> The run with the local event loop: events processed up to each output, history,
@@ -415,7 +418,21 @@ contains
       call progress(self, par)
     end do
     call self%write_checkpoint_now(par, 'checkpoint_final', err)
+    if (err%ok()) call write_events(self, par, err)
   end subroutine run_local
+
+  !> The event log (&output event_log), one file per rank (events.csv on one rank).
+  subroutine write_events(self, par, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    type(error_t), intent(inout) :: err
+    character(len=:), allocatable :: name
+    if (.not. self%collisions%log_events) return
+    name = 'events.csv'
+    if (par%n_ranks > 1) name = 'events_rank'//str(par%rank)//'.csv'
+    if (.not. allocated(self%collisions%log_rows)) allocate (self%collisions%log_rows(8, 0))
+    call write_event_log(join_path(self%output_dir, name), self%collisions%log_rows, self%collisions%n_log, err)
+  end subroutine write_events
 
   !> The first multiple of interval after time (k interval computed, never accumulated).
   pure real(dp) function next_multiple(time, interval) result(next)

@@ -81,6 +81,12 @@ if(RICOCHET_USE_HDF5)
                        ${PROJECT_SOURCE_DIR}/input/meshes/icosphere_face_down.obj)
   ricochet_python_case(free_rotation_deck check_free_rotation.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_free_rotation_deck ${RICOCHET_TEST_DATA}/free_rotation_I123.csv)
+  # The local event loop against the global one on gases of 200 spheres and 200 cubes (5 s)
+  ricochet_python_case(local_events check_local_events.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_local_events)
+  # A chain A -> B -> C (a stale bound would tunnel) and a free cluster never stepped (2 s)
+  ricochet_python_case(local_cases check_local_cases.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_local_cases)
   # (runs a few valid decks too, which write output)
   ricochet_python_case(input_errors check_errors.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_input_errors ${RICOCHET_TEST_DATA})
