@@ -64,16 +64,15 @@ if(RICOCHET_USE_HDF5)
   endforeach()
   ricochet_python_case(demo check_resting.py demo $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/demo.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_demo)
-  # Issue 6's piles: 1000 cubes (about 3 min), 1000 tetrahedra (1.5 min), 200 L-prisms (35 s)
+  # Issue 6's piles (local loop, two at a time): 1000 cubes and 1000 tetrahedra (2.5 min each),
+  # 200 L-prisms (40 s)
   foreach(kind cubes tetrahedra l_shapes)
     ricochet_python_case(pile_${kind} check_resting.py pile $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/pile_${kind}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_pile_${kind})
     set_tests_properties(regression.pile_${kind} PROPERTIES LABELS "regression;slow")
   endforeach()
-  # 23 s: the pyramid's first second (exact normal solves of 15 boxes every step) before it sleeps
-  set_tests_properties(regression.pyramid PROPERTIES LABELS "regression;slow")
-  # ~27 s: 8 cubes landing on each other are ~5,000 global events before they sleep at 2.4 s
-  set_tests_properties(regression.pile_small PROPERTIES LABELS "regression;slow")
+  # (the pyramid and the 8-cube pile took 23 s and 27 s in the global loop, 1 s each in the
+  # local one: no longer labelled slow)
   ricochet_python_case(tori_chain check_collisions.py tori_chain $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/tori_chain.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_tori_chain)
   ricochet_python_case(bouncing_mesh_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
