@@ -390,6 +390,7 @@ class Ricochet:
     kept beside it. Penetration: ricochet never allows
     any; its smallest separation is reported instead (negative would be a penetration)."""
     name = 'ricochet'
+    events = 'auto'     # &integrator events: the local loop with exact rotation
 
     def __init__(self):
         self.exe = os.environ.get('RICOCHET_EXE', os.path.join(ROOT, 'build', 'app', 'ricochet'))
@@ -408,6 +409,7 @@ class Ricochet:
         L = s['L']
         lines = ["&run title='gas %s %d', t_end=%r, dt_max=1e-2 /" % (shape, n, t_end),
                  "&contact restitution=1.0 /",
+                 "&integrator events='%s' /" % self.events,
                  "&output write_frames=.false., history_interval=%r /" % (t_end / 10)]
         for axis in range(3):
             for side in (-1, 1):
@@ -480,6 +482,13 @@ class Ricochet:
 
 
 
+
+class RicochetGlobal(Ricochet):
+    """ricochet's global event loop (&integrator events = 'global'): every event a step of
+    the whole scene; the reference the local loop is measured against."""
+    name = 'ricochet-global'
+    events = 'global'
+
 def fmt(x, spec='%.3g'):
     return '-' if x is None else spec % x
 
@@ -521,7 +530,7 @@ def write_gas_md(a, results, rows, sfx):
               platform.platform(), os.cpu_count(), platform.python_version(),
               ', '.join(results['engines'].values()))
           + hdr + '\n'.join(rows) + '\n')
-    ric = [r for r in runs if r['engine'] == 'ricochet' and not r.get('skipped')]
+    ric = [r for r in runs if r['engine'].startswith('ricochet') and not r.get('skipped')]
     if ric:
         md += ('\nricochet in detail (stepping = history wall clock t = 0 .. t_end; set-up = '
                'history wall clock at t = 0; process = whole program, deck reading included):\n\n'
@@ -531,10 +540,10 @@ def write_gas_md(a, results, rows, sfx):
                '|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n')
         for r in ric:
             md += '| %s | %d | %g | %d | %d | %.2f | %d | %.2f | %.1f | %.3g | %.3g | %.3g | %.3g | %.3g |\n' % (
-                r['shape'], r['n'], r['t_sim'], r['steps'], r['events'], r['events_late'] / r['n'] / r['t_late'],
+                r['shape'] + ('' if r['engine'] == 'ricochet' else ' (global loop)'), r['n'], r['t_sim'], r['steps'], r['events'], r['events_late'] / r['n'] / r['t_late'],
                 r['impulse_groups'], r['groups_per_event'], r['pair_queries'] / max(r['steps'], 1),
                 r['wall_step'], r['wall_per_event'], r['wall_per_event_late'], r['setup_wall'], r['process_wall'])
-    ric_runs = [r for r in runs if r['engine'] == 'ricochet']
+    ric_runs = [r for r in runs if r['engine'].startswith('ricochet')]
     ex = [('time per simulated second, whole run',) + x for x in growth_exponents(runs)]
     ex += [('time per simulated second, second half',) + x for x in growth_exponents(runs, 'wall_per_sim_s_late')]
     ex += [('time per event, whole run',) + x for x in growth_exponents(ric_runs, 'wall_per_event')]
@@ -552,7 +561,7 @@ def main():
     ap.add_argument('--quick', action='store_true', help='gas up to N = 3000, three time steps (under a minute)')
     ap.add_argument('--scenes', nargs='+', default=['gas', 'ball'], help='gas, ball (the stack is in bench_resting.py)')
     ap.add_argument('--engines', nargs='+', default=['pybullet', 'mujoco'],
-                    help='pybullet, mujoco, ricochet (gas only: the ball is a validation deck)')
+                    help='pybullet, mujoco, ricochet, ricochet-global (the global event loop; gas only: the ball is a validation deck)')
     ap.add_argument('--gas-n', type=int, nargs='+', help='gas body counts')
     ap.add_argument('--gas-shapes', nargs='+', default=['sphere', 'cube'])
     ap.add_argument('--gas-t', type=float, help='simulated gas time [s]')
@@ -595,11 +604,12 @@ def main():
     engines = []
     for e in a.engines:
         try:
-            engines.append({'pybullet': Bullet, 'mujoco': Mujoco, 'ricochet': Ricochet}[e]())
+            engines.append({'pybullet': Bullet, 'mujoco': Mujoco, 'ricochet': Ricochet,
+                            'ricochet-global': RicochetGlobal}[e]())
         except ImportError as err:
             print('skipping %s: %s (pip install %s)' % (e, err, e), file=sys.stderr)
     for e in engines:
-        if e.name == 'ricochet':
+        if e.name.startswith('ricochet'):
             e.keep_history = a.keep_history
     results = dict(machine=platform.platform(), python=platform.python_version(),
                    engines={e.name: e.version for e in engines}, quick=a.quick, runs={})

@@ -57,6 +57,7 @@ module input_config
     real(dp) :: history_interval = -1.0_dp         !< [s] between history rows; auto: interval/10
     logical :: write_frames = .true.               !< .false.: history and checkpoints only
     logical :: check_overlaps = .false.            !< exact overlap test of all bodies at every frame
+    logical :: event_log = .false.                 !< events.csv: every body's impulses at every impact
   end type output_config_t
 
   !> One &body group: a body, or a lattice of copies of it.

@@ -27,7 +27,7 @@ module collision_stage
   use advancement_bound, only: angular_speed_bound
   use time_of_contact, only: pair_motion_t, advancement_result_t, distance_oracle_t, advance_pair
   use contact_features, only: contact_feature_t, find_contact_features
-  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, contact_groups
+  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, contact_groups, group_members
   use contact_solver, only: pgs_stats_t, solve_contacts_pgs
   use resting_contact, only: resting_contact_t
   use contact_material, only: material_table_t
@@ -37,7 +37,7 @@ module collision_stage
   use sleeping, only: sleep_t
   implicit none
   private
-  public :: collision_stage_t, collision_stats_t, smallest_moving_extent
+  public :: collision_stage_t, collision_stats_t, smallest_moving_extent, turning_reach
 
   type :: collision_stats_t
     integer(i8) :: events = 0                  !< steps that ended at a contact
@@ -91,6 +91,13 @@ module collision_stage
     real(dp), allocatable :: grid_margin(:)   !< travel bound each body was entered with [m]
     real(dp), allocatable :: turn(:)          !< how far turning moves any surface point in the step [m]
     integer, allocatable :: contact_pair(:)   !< the pass: candidate pair of each contact point
+    logical, allocatable :: held(:)           !< the pass: bodies it holds (false between passes)
+    !> Event log (&output event_log): per body changed by an impact, time [s], global id,
+    !> linear impulse [N s] and angular impulse about its centre of mass [N m s].
+    logical :: log_events = .false.
+    real(dp), allocatable :: log_rows(:, :)
+    integer :: n_log = 0
+    integer, allocatable :: slot_of(:)        !< local numbering of a correction's bodies (0 between calls)
     type(contact_t), allocatable :: contacts(:)
     integer(i8), allocatable :: keys(:, :)
     type(contact_feature_t), allocatable :: features(:)
@@ -102,10 +109,12 @@ module collision_stage
     procedure :: return_unused_pass => stage_return_unused_pass
     procedure :: limit_step => stage_limit_step
     procedure :: earliest_contact => stage_earliest_contact
+    procedure :: advance_candidate => stage_advance_candidate
     procedure :: resolve => stage_resolve
     procedure :: settle => stage_settle
     procedure :: drop_events => stage_drop_events
     procedure :: wake_all => stage_wake_all
+    procedure :: reserve_table => stage_reserve_table
   end type collision_stage_t
 
   !> Closest points of one pair at time_now + t, with the poses the propagator will give.
@@ -194,24 +203,38 @@ contains
   !> The largest step that keeps every body within one grid box: |v| h + |a| h^2 + band <= box
   !> (a: gravity, or the acceleration of a loaded body, zero; the parabola needs |a| h^2/2, the
   !> motion at v + g h the contact pass may give |a| h^2; band: the contact band).
-  pure real(dp) function stage_limit_step(self, bodies, flight, gravity, h) result(limited)
+  !> members, when present: only these bodies (an island of the local loop).
+  pure real(dp) function stage_limit_step(self, bodies, flight, gravity, h, members) result(limited)
     class(collision_stage_t), intent(in) :: self
     type(bodies_t), intent(in) :: bodies
     type(free_flight_t), intent(in) :: flight
     real(dp), intent(in) :: gravity(3), h
-    real(dp) :: speed, g, room
-    integer :: i
+    integer, intent(in), optional :: members(:)
+    real(dp) :: room
+    integer :: i, m
     limited = h
     ! Each body enters the grid with its travel bound |v| h + |a| h^2 (prepare) plus the
     ! contact band: that sum stays within one box, so two rings find every pair.
     room = self%box_size - (self%target + self%tolerance)
-    do i = 1, bodies%n_owned
-      if (bodies%fixed(i)) cycle
-      g = norm2(flight%acceleration(i, gravity))
-      speed = norm2(bodies%v(:, i))
+    if (present(members)) then
+      do m = 1, size(members)
+        call limit_one(members(m))
+      end do
+    else
+      do i = 1, bodies%n_owned
+        call limit_one(i)
+      end do
+    end if
+  contains
+    pure subroutine limit_one(k)
+      integer, intent(in) :: k
+      real(dp) :: speed, g
+      if (bodies%fixed(k)) return
+      g = norm2(flight%acceleration(k, gravity))
+      speed = norm2(bodies%v(:, k))
       if (speed*limited + g*limited*limited > room) &
         limited = 2.0_dp*room/(speed + sqrt(speed*speed + 4.0_dp*g*room))
-    end do
+    end subroutine limit_one
   end function stage_limit_step
 
   !> The step's candidate pairs, once per step before the contact pass. Every moving body
@@ -344,14 +367,15 @@ contains
     integer, parameter :: max_sweeps = 200, max_halvings = 4
     real(dp), allocatable :: lam(:), bound(:), d(:, :), x_saved(:, :), gap_new(:), normal_new(:, :)
     logical, allocatable :: active(:), moves(:)
-    integer :: n, k, i, j, sweep, halving
+    integer, allocatable :: local(:, :), body_of(:)
+    integer :: n, k, i, j, sweep, halving, nb, li, lj, b
     real(dp) :: aim, weight, residual, dl, worst, alpha, largest
     logical :: ok
     n = bodies%n_owned + bodies%n_ghost
     if (self%n_pairs == 0) return
     if (.not. any(.not. self%pair_far(1:self%n_pairs) .and. self%pair_gap0(1:self%n_pairs) < trigger*self%target)) return
     aim = self%target + 0.5_dp*self%tolerance
-    allocate (lam(self%n_pairs), bound(self%n_pairs), active(self%n_pairs), d(3, n), moves(n))
+    allocate (lam(self%n_pairs), bound(self%n_pairs), active(self%n_pairs), local(2, self%n_pairs))
     ! The constraints: every near pair with a moving body.
     lam = 0.0_dp
     do k = 1, self%n_pairs
@@ -362,6 +386,10 @@ contains
       bound(k) = min(self%pair_gap0(k), aim)
       if (self%pair_gap0(k) < trigger*self%target) bound(k) = aim
     end do
+    ! The bodies of the constraints, numbered locally (a correction costs its pairs, not the
+    ! scene): body_of(1:nb), local(:, k) the local numbers of pair k's bodies.
+    call number_pair_bodies(self, n, active, local, body_of, nb)
+    allocate (d(3, nb), moves(nb))
     d = 0.0_dp
     do sweep = 1, max_sweeps
       worst = 0.0_dp
@@ -369,30 +397,35 @@ contains
         if (.not. active(k)) cycle
         i = self%pairs(1, k)
         j = self%pairs(2, k)
+        li = local(1, k)
+        lj = local(2, k)
         weight = bodies%inv_mass(i) + bodies%inv_mass(j)
         if (weight <= 0.0_dp) cycle
-        residual = self%pair_gap0(k) + dot_product(self%pair_normal(:, k), d(:, j) - d(:, i)) - bound(k)
+        residual = self%pair_gap0(k) + dot_product(self%pair_normal(:, k), d(:, lj) - d(:, li)) - bound(k)
         dl = max(-residual/weight, -lam(k))
         if (dl == 0.0_dp) cycle
         lam(k) = lam(k) + dl
-        d(:, j) = d(:, j) + bodies%inv_mass(j)*dl*self%pair_normal(:, k)
-        d(:, i) = d(:, i) - bodies%inv_mass(i)*dl*self%pair_normal(:, k)
+        d(:, lj) = d(:, lj) + bodies%inv_mass(j)*dl*self%pair_normal(:, k)
+        d(:, li) = d(:, li) - bodies%inv_mass(i)*dl*self%pair_normal(:, k)
         worst = max(worst, abs(residual))
       end do
       if (worst <= 1.0e-3_dp*self%target) exit
     end do
-    do i = 1, n
-      moves(i) = any(d(:, i) /= 0.0_dp) .and. .not. bodies%fixed(i)
+    do b = 1, nb
+      moves(b) = any(d(:, b) /= 0.0_dp) .and. .not. bodies%fixed(body_of(b))
     end do
     if (.not. any(moves)) return
-    x_saved = bodies%x(:, 1:n)
+    allocate (x_saved(3, nb))
+    do b = 1, nb
+      x_saved(:, b) = bodies%x(:, body_of(b))
+    end do
     allocate (gap_new(self%n_pairs), normal_new(3, self%n_pairs))
     largest = maxval(norm2(d, dim=1), mask=moves)
     alpha = min(1.0_dp, 0.5_dp*(self%target + self%tolerance)/largest)
     if (alpha < 1.0_dp) self%stats%corrections_capped = self%stats%corrections_capped + 1
     do halving = 0, max_halvings
-      do i = 1, n
-        if (moves(i)) bodies%x(:, i) = x_saved(:, i) + alpha*d(:, i)
+      do b = 1, nb
+        if (moves(b)) bodies%x(:, body_of(b)) = x_saved(:, b) + alpha*d(:, b)
       end do
       ! Measure every pair of a moved body: none may end closer than its bound allows
       ! (the low ones at least no closer than they were).
@@ -401,7 +434,7 @@ contains
         if (.not. active(k)) cycle
         i = self%pairs(1, k)
         j = self%pairs(2, k)
-        if (.not. (moves(i) .or. moves(j))) cycle
+        if (.not. (moved(i) .or. moved(j))) cycle
         call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
                       gap_new(k), normal_new(:, k))
         self%stats%pair_tests = self%stats%pair_tests + 1
@@ -416,13 +449,16 @@ contains
       alpha = 0.5_dp*alpha
     end do
     if (.not. ok) then
-      bodies%x(:, 1:n) = x_saved
+      do b = 1, nb
+        bodies%x(:, body_of(b)) = x_saved(:, b)
+      end do
+      call clear_numbers()
       return
     end if
     do k = 1, self%n_pairs
       i = self%pairs(1, k)
       j = self%pairs(2, k)
-      if (.not. (moves(i) .or. moves(j))) cycle
+      if (.not. (moved(i) .or. moved(j))) cycle
       if (active(k)) then
         self%pair_gap0(k) = gap_new(k)
         self%pair_normal(:, k) = normal_new(:, k)
@@ -435,11 +471,59 @@ contains
       end if
       self%stats%min_separation = min(self%stats%min_separation, self%pair_gap0(k))
     end do
-    do i = 1, n
-      if (moves(i)) call flight%release(i)
+    do b = 1, nb
+      if (moves(b)) call flight%release(body_of(b))
     end do
     self%stats%corrections = self%stats%corrections + count(moves)
+    call clear_numbers()
+  contains
+    logical function moved(body)
+      integer, intent(in) :: body
+      moved = .false.
+      if (self%slot_of(body) > 0) moved = moves(self%slot_of(body))
+    end function moved
+    subroutine clear_numbers()
+      integer :: bb
+      do bb = 1, nb
+        self%slot_of(body_of(bb)) = 0
+      end do
+    end subroutine clear_numbers
   end subroutine stage_correct_distances
+
+  !> Local numbers 1..nb for the bodies of the active pairs, in order of first appearance
+  !> (body_of(1:nb)); local(:, k): those of pair k's bodies. self%slot_of holds the numbers
+  !> until the caller clears them (it is all zero between calls).
+  subroutine number_pair_bodies(self, n, active, local, body_of, nb)
+    type(collision_stage_t), intent(inout) :: self
+    integer, intent(in) :: n
+    logical, intent(in) :: active(:)
+    integer, intent(out) :: local(:, :)
+    integer, allocatable, intent(out) :: body_of(:)
+    integer, intent(out) :: nb
+    integer :: k, c, body
+    if (allocated(self%slot_of)) then
+      if (size(self%slot_of) < n) deallocate (self%slot_of)
+    end if
+    if (.not. allocated(self%slot_of)) then
+      allocate (self%slot_of(n))
+      self%slot_of = 0
+    end if
+    allocate (body_of(2*count(active)))
+    nb = 0
+    local = 0
+    do k = 1, size(active)
+      if (.not. active(k)) cycle
+      do c = 1, 2
+        body = self%pairs(c, k)
+        if (self%slot_of(body) == 0) then
+          nb = nb + 1
+          body_of(nb) = body
+          self%slot_of(body) = nb
+        end if
+        local(c, k) = self%slot_of(body)
+      end do
+    end do
+  end subroutine number_pair_bodies
 
   !> Earliest time of contact in [0, h] over all candidate pairs: h_event <= h. The pairs
   !> that reach contact at h_event are kept for resolve.
@@ -453,13 +537,9 @@ contains
     real(dp), intent(out) :: h_event
     type(error_t), intent(inout) :: err
     real(dp), allocatable :: margin(:)
-    type(pair_oracle_t) :: oracle
-    type(pair_motion_t) :: motion
     type(advancement_result_t) :: res
-    real(dp) :: gap0, normal0(3), safe, floor
-    real(dp), allocatable :: pair_time(:), pair_gap0(:), pair_normal(:, :)
-    logical, allocatable :: receding(:), far(:), pair_touches(:), solved(:)
-    logical :: hovering
+    real(dp), allocatable :: pair_time(:)
+    logical, allocatable :: pair_touches(:)
     integer :: n, i, j, k
 
     n = bodies%n_owned + bodies%n_ghost
@@ -486,98 +566,16 @@ contains
     if (err%failed()) return
     if (self%n_pairs == 0) return
 
-    oracle%flight => flight
-    oracle%bodies => bodies
-    oracle%shapes => shapes
-    oracle%config = config
-    oracle%time_now = time_now
-    oracle%gravity = gravity
     allocate (pair_time(self%n_pairs), pair_touches(self%n_pairs))
     pair_touches = .false.
     pair_time = huge(1.0_dp)
-    ! Gaps at the step's start (prepare, after the distance correction).
-    pair_gap0 = self%pair_gap0(1:self%n_pairs)
-    pair_normal = self%pair_normal(:, 1:self%n_pairs)
-    far = self%pair_far(1:self%n_pairs)
-    ! Inelastic pairs the contact pass solved (in the band, or speculative: not yet touching),
-    ! still above the floor: their contact points may approach only as fast as closes them to
-    ! the band in the step, and whatever the solve left is bounded below as it is.
-    allocate (solved(self%n_pairs))
+    ! Gaps at the step's start: prepare's, after the distance correction.
     do k = 1, self%n_pairs
-      solved(k) = self%pair_in_pass(k) .and. .not. far(k) .and. pair_gap0(k) > 0.5_dp*self%target + self%tolerance
-      if (solved(k)) solved(k) = self%materials%pair_restitution(bodies%group_id(self%pairs(1, k)), &
-                                                                 bodies%group_id(self%pairs(2, k))) <= 0.0_dp
-    end do
-    ! In the contact band, measure whether any contact point really approaches: the bound's
-    ! turning term (Omega r) says "may approach" for every spinning pair in contact.
-    ! Receding pairs settle towards the floor instead of stopping the run (pairs already
-    ! near the floor were opened by correct_distances at the step's start).
-    allocate (receding(self%n_pairs))
-    receding = .false.
-    do k = 1, self%n_pairs
+      if (self%pair_far(k)) cycle
       i = self%pairs(1, k)
       j = self%pairs(2, k)
-      if (far(k)) cycle
-      if (pair_gap0(k) > self%target + self%tolerance .or. solved(k)) cycle
-      gap0 = pair_gap0(k)
-      normal0 = pair_normal(:, k)
-      motion = pair_motion(shapes, bodies, flight, i, j, gravity)
-      if (band_rate(motion, normal0) <= self%velocity_tolerance) cycle
-      if (approaching(self, bodies, shapes, i, j, gap0, normal0)) cycle
-      receding(k) = .true.
-    end do
-    do k = 1, self%n_pairs
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      if (far(k)) cycle
-      gap0 = pair_gap0(k)
-      normal0 = pair_normal(:, k)
-      motion = pair_motion(shapes, bodies, flight, i, j, gravity)
-      oracle%i = i
-      oracle%j = j
-      oracle%min_gap = huge(1.0_dp)
-      ! Turning bodies: the second-order bound (plane_bound) skips the part of the step in
-      ! which the pair provably stays above the band (or, settling in the band, above the
-      ! floor). A pair hovering just above the band (within one target, its centres closing
-      ! slower than the rest speed: a tumbling body about to rest) may come down to 3/4 of
-      ! the target instead, or the first-order bound would crawl towards the band in tiny
-      ! steps; such a contact is a resting one, not an impact whose timing matters.
-      safe = 0.0_dp
-      hovering = .false.
-      if (solved(k)) then
-        ! A solved pair may come down to the settling floor; only there is it an event.
-        ! Turning pairs: the second-order bound, re-tested along the step (extend_receding),
-        ! with the first-order bound crawl-limited.
-        if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
-          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target + self%tolerance, &
-                                 h_event)
-          if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
-        end if
-        call advance_pair(oracle, motion, gap0, normal0, h_event, 0.5_dp*self%target, self%tolerance, &
-                          0.5_dp*self%target, self%velocity_tolerance, self%max_iterations, res, safe_time=safe, &
-                          hovering=.true.)
-      else
-        if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
-          if (gap0 > self%target + self%tolerance) then
-            floor = self%target + self%tolerance
-            hovering = gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed
-            if (hovering) floor = 0.75_dp*self%target
-            safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, floor, h_event)
-          else if (receding(k) .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
-            safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, h_event)
-          end if
-          if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
-        end if
-        call advance_pair(oracle, motion, gap0, normal0, h_event, self%target, self%tolerance, 0.5_dp*self%target, &
-                          self%velocity_tolerance, self%max_iterations, res, receding=receding(k), safe_time=safe, &
-                          hovering=hovering)
-      end if
-      self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
-      self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
-      if ((receding(k) .or. solved(k)) .and. (res%contact .or. res%capped) .and. res%time > 0.0_dp .and. &
-          res%time < h_event .and. flight%exact) then
-        call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_event, res, solved(k))
-      end if
+      call self%advance_candidate(bodies, shapes, flight, gravity, config, time_now, k, h_event, self%max_iterations, &
+                                  res)
       if (res%capped) self%stats%capped = self%stats%capped + 1
       if (res%contact .or. res%capped) then
         pair_time(k) = res%time
@@ -603,6 +601,102 @@ contains
       end if
     end do
   end subroutine stage_earliest_contact
+
+  !> Time of contact of candidate pair k of the step's table over [0, step] from time_now
+  !> (bodies at time_now), by conservative advancement, with what the pair is: solved by the
+  !> contact pass (an inelastic pair may come down to the settling floor), in the band and
+  !> receding (it may settle), hovering just above the band, or an approach to the target;
+  !> turning pairs start from the second-order safe time (plane_bound) and receding ones are
+  !> re-tested along the step (extend_receding). One pair's part of earliest_contact, and what
+  !> the local event loop computes for a pair whose certificate is due.
+  subroutine stage_advance_candidate(self, bodies, shapes, flight, gravity, config, time_now, k, step, &
+                                     max_iterations, res)
+    class(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(inout), target :: bodies
+    type(shape_library_t), intent(in), target :: shapes
+    type(free_flight_t), intent(inout), target :: flight
+    real(dp), intent(in) :: gravity(3), time_now
+    type(integrator_config_t), intent(in) :: config
+    integer, intent(in) :: k
+    real(dp), intent(in) :: step          !< [s] from time_now
+    integer, intent(in) :: max_iterations
+    type(advancement_result_t), intent(out) :: res
+    type(pair_oracle_t) :: oracle
+    type(pair_motion_t) :: motion
+    real(dp) :: gap0, normal0(3), safe, floor
+    logical :: hovering, solved, receding
+    integer :: i, j
+    i = self%pairs(1, k)
+    j = self%pairs(2, k)
+    gap0 = self%pair_gap0(k)
+    normal0 = self%pair_normal(:, k)
+    ! Inelastic pairs the contact pass solved (in the band, or speculative: not yet touching),
+    ! still above the floor: their contact points may approach only as fast as closes them to
+    ! the band in the step, and whatever the solve left is bounded below as it is.
+    solved = self%pair_in_pass(k) .and. gap0 > 0.5_dp*self%target + self%tolerance
+    if (solved) solved = self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j)) <= 0.0_dp
+    motion = pair_motion(shapes, bodies, flight, i, j, gravity)
+    ! In the contact band, measure whether any contact point really approaches: the bound's
+    ! turning term (Omega r) says "may approach" for every spinning pair in contact.
+    ! Receding pairs settle towards the floor instead of stopping the run (pairs already
+    ! near the floor were opened by correct_distances at the step's start).
+    receding = .false.
+    if (.not. (gap0 > self%target + self%tolerance .or. solved)) then
+      if (band_rate(motion, normal0) > self%velocity_tolerance) &
+        receding = .not. approaching(self, bodies, shapes, i, j, gap0, normal0)
+    end if
+    oracle%flight => flight
+    oracle%bodies => bodies
+    oracle%shapes => shapes
+    oracle%config = config
+    oracle%time_now = time_now
+    oracle%gravity = gravity
+    oracle%i = i
+    oracle%j = j
+    oracle%min_gap = huge(1.0_dp)
+    ! Turning bodies: the second-order bound (plane_bound) skips the part of the step in
+    ! which the pair provably stays above the band (or, settling in the band, above the
+    ! floor). A pair hovering just above the band (within one target, its centres closing
+    ! slower than the rest speed: a tumbling body about to rest) may come down to 3/4 of
+    ! the target instead, or the first-order bound would crawl towards the band in tiny
+    ! steps; such a contact is a resting one, not an impact whose timing matters.
+    safe = 0.0_dp
+    hovering = .false.
+    if (solved) then
+      ! A solved pair may come down to the settling floor; only there is it an event.
+      ! Turning pairs: the second-order bound, re-tested along the step (extend_receding),
+      ! with the first-order bound crawl-limited.
+      if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
+        safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target + self%tolerance, &
+                               step)
+        if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
+      end if
+      call advance_pair(oracle, motion, gap0, normal0, step, 0.5_dp*self%target, self%tolerance, &
+                        0.5_dp*self%target, self%velocity_tolerance, max_iterations, res, safe_time=safe, &
+                        hovering=.true.)
+    else
+      if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
+        if (gap0 > self%target + self%tolerance) then
+          floor = self%target + self%tolerance
+          hovering = gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed
+          if (hovering) floor = 0.75_dp*self%target
+          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, floor, step)
+        else if (receding .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
+          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, step)
+        end if
+        if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
+      end if
+      call advance_pair(oracle, motion, gap0, normal0, step, self%target, self%tolerance, 0.5_dp*self%target, &
+                        self%velocity_tolerance, max_iterations, res, receding=receding, safe_time=safe, &
+                        hovering=hovering)
+    end if
+    self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
+    self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
+    if ((receding .or. solved) .and. (res%contact .or. res%capped) .and. res%time > 0.0_dp .and. &
+        res%time < step .and. flight%exact) then
+      call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, step, res, solved)
+    end if
+  end subroutine stage_advance_candidate
 
   !> A pair in the band whose contact points recede (a tumbling body sliding or rolling
   !> over another) advances only to its second-order safe time, a few microseconds when the
@@ -772,14 +866,18 @@ contains
   !>    solved with the step instead of cutting it at the time of contact; conservative
   !>    advancement still checks the motion (the pair may come down to the settling floor).
   !> Solved with e = 0 and friction; sets the loads the propagator applies over the step.
-  subroutine stage_contact_pass(self, bodies, shapes, flight, h, gravity, err)
+  !> members, when present: the island of the local event loop this pass is for (its pairs
+  !> are the step's pairs, its sleeping neighbours already woken by the caller); those of
+  !> them in no persistent contact fly free. Default: the whole scene (the global loop).
+  subroutine stage_contact_pass(self, bodies, shapes, flight, h, gravity, err, members)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
     type(shape_library_t), intent(in) :: shapes
     type(free_flight_t), intent(inout) :: flight
     real(dp), intent(in) :: h, gravity(3)
     type(error_t), intent(inout) :: err
-    logical, allocatable :: persistent(:), held(:)
+    integer, intent(in), optional :: members(:)
+    logical, allocatable :: persistent(:)
     real(dp), allocatable :: u_start(:)
     integer :: n, i, n_contacts, c, kept, round
     real(dp) :: separating_limit
@@ -788,10 +886,12 @@ contains
     n_contacts = 0
     self%pass_step = h
     self%n_band_pairs = 0
+    call ensure_held(self, n)
     if (n >= 2 .and. h > 0.0_dp) then
       ! Each round wakes at least one island: at most as many rounds as islands asleep.
       do round = 1, n + 1
         call pass_contacts(self, bodies, shapes, h, n_contacts)
+        if (present(members)) exit
         call wake_reached(self, bodies, flight, h, gravity, n_contacts, woke)
         if (.not. woke) exit
         ! the woken bodies' pairs with each other were static-static pairs, never listed
@@ -806,8 +906,7 @@ contains
       ! Contacts separating faster than gravity can close in the step need no impulse; leaving
       ! them out keeps a body that bounces off the floor on its exact parabola.
       separating_limit = 2.0_dp*norm2(gravity)*h + self%velocity_tolerance
-      allocate (held(n), u_start(n_contacts))
-      held = .false.
+      allocate (u_start(n_contacts))
       do c = 1, n_contacts
         u_start(c) = normal_velocity(bodies, self%contacts(c))
         if (self%contacts(c)%allowed_approach > 0.0_dp) then
@@ -829,7 +928,7 @@ contains
         grew = .false.
         do c = 1, n_contacts
           if (persistent(c)) cycle
-          if (.not. (held(self%contacts(c)%a) .or. held(self%contacts(c)%b))) cycle
+          if (.not. (self%held(self%contacts(c)%a) .or. self%held(self%contacts(c)%b))) cycle
           if (self%contacts(c)%restitution > 0.0_dp .and. u_start(c) < -self%rest_speed) cycle
           persistent(c) = .true.
           call hold(c)
@@ -840,6 +939,8 @@ contains
       kept = count(persistent)
       do c = 1, n_contacts
         if (persistent(c)) self%pair_in_pass(self%contact_pair(c)) = .true.
+        self%held(self%contacts(c)%a) = .false.
+        self%held(self%contacts(c)%b) = .false.
       end do
       if (kept < n_contacts) then
         self%contacts(1:kept) = pack(self%contacts(1:n_contacts), persistent)
@@ -847,7 +948,12 @@ contains
       end if
     end if
     if (kept > 0 .and. h > 0.0_dp) then
-      call self%resting%solve(bodies, flight, self%contacts(1:kept), self%keys(:, 1:kept), kept, h, gravity, err)
+      call self%resting%solve(bodies, flight, self%contacts(1:kept), self%keys(:, 1:kept), kept, h, gravity, err, &
+                              members)
+    else if (present(members)) then
+      do i = 1, size(members)
+        if (members(i) <= bodies%n_owned) call flight%clear_load(members(i))
+      end do
     else
       do i = 1, bodies%n_owned
         call flight%clear_load(i)
@@ -857,8 +963,8 @@ contains
 
     subroutine hold(cc)
       integer, intent(in) :: cc
-      held(self%contacts(cc)%a) = .not. bodies%fixed(self%contacts(cc)%a)
-      held(self%contacts(cc)%b) = .not. bodies%fixed(self%contacts(cc)%b)
+      self%held(self%contacts(cc)%a) = .not. bodies%fixed(self%contacts(cc)%a)
+      self%held(self%contacts(cc)%b) = .not. bodies%fixed(self%contacts(cc)%b)
     end subroutine hold
 
     !> A speculative contact joins on its own when, with gravity's impulse for the step, it
@@ -870,6 +976,19 @@ contains
     end function speculative_active
 
   end subroutine stage_contact_pass
+
+  !> The pass's per-body flags, all false between passes (set and cleared for its contacts'
+  !> bodies only: a pass costs its contacts, not the scene).
+  subroutine ensure_held(self, n)
+    type(collision_stage_t), intent(inout) :: self
+    integer, intent(in) :: n
+    if (allocated(self%held)) then
+      if (size(self%held) >= n) return
+      deallocate (self%held)
+    end if
+    allocate (self%held(n))
+    self%held = .false.
+  end subroutine ensure_held
 
   !> Change of a contact's normal velocity from gravity's impulse over h for the moving bodies
   !> (zero when both move: gravity does not change their relative velocity) [m/s].
@@ -1008,21 +1127,39 @@ contains
   !> combination of the start velocity and the solved one, so a persistent contact that
   !> approached at neither does not approach now. The motion over the step was the one
   !> conservative advancement checked; only the velocities change.
-  subroutine stage_return_unused_pass(self, bodies, flight, h_taken)
+  !> members and pass_step, when present: an island of the local loop, whose own pass was
+  !> for a step of pass_step [s] (default: every owned body, the last pass's step).
+  subroutine stage_return_unused_pass(self, bodies, flight, h_taken, members, pass_step)
     class(collision_stage_t), intent(in) :: self
     type(bodies_t), intent(inout) :: bodies
     type(free_flight_t), intent(inout) :: flight
     real(dp), intent(in) :: h_taken   !< the step taken [s]
-    real(dp) :: unused
-    integer :: i
-    if (h_taken >= self%pass_step) return
-    unused = 1.0_dp - h_taken/self%pass_step
-    do i = 1, bodies%n_owned
-      if (bodies%fixed(i) .or. .not. flight%loaded(i)) cycle
-      bodies%v(:, i) = bodies%v(:, i) - unused*self%resting%dv(:, i)
-      bodies%w(:, i) = bodies%w(:, i) - unused*self%resting%dw(:, i)
-      call flight%release(i)
-    end do
+    integer, intent(in), optional :: members(:)
+    real(dp), intent(in), optional :: pass_step
+    real(dp) :: unused, planned
+    integer :: i, m
+    planned = self%pass_step
+    if (present(pass_step)) planned = pass_step
+    if (h_taken >= planned) return
+    unused = 1.0_dp - h_taken/planned
+    if (present(members)) then
+      do m = 1, size(members)
+        call take_back(members(m))
+      end do
+    else
+      do i = 1, bodies%n_owned
+        call take_back(i)
+      end do
+    end if
+  contains
+    subroutine take_back(k)
+      integer, intent(in) :: k
+      if (k > bodies%n_owned) return
+      if (bodies%fixed(k) .or. .not. flight%loaded(k)) return
+      bodies%v(:, k) = bodies%v(:, k) - unused*self%resting%dv(:, k)
+      bodies%w(:, k) = bodies%w(:, k) - unused*self%resting%dw(:, k)
+      call flight%release(k)
+    end subroutine take_back
   end subroutine stage_return_unused_pass
 
   !> After the bodies moved to the event: contact points of every pair in contact (the
@@ -1031,7 +1168,8 @@ contains
   !> Contacts approaching slower than the rest speed are inelastic; with friction, the
   !> normal impulses bound the friction impulses of the same impact (Coulomb's cone), and if
   !> friction makes a contact approach again the inelastic projection closes the loop.
-  subroutine stage_resolve(self, bodies, shapes, flight, h_event, h_planned, err)
+  !> time [s], when present: the event's time, for the event log (log_events).
+  subroutine stage_resolve(self, bodies, shapes, flight, h_event, h_planned, err, time)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
     type(shape_library_t), intent(in) :: shapes
@@ -1039,7 +1177,9 @@ contains
     real(dp), intent(in) :: h_event     !< the step taken [s]
     real(dp), intent(in) :: h_planned   !< the step before the contact cut it [s]
     type(error_t), intent(inout) :: err
-    integer :: i, c, n_contacts
+    real(dp), intent(in), optional :: time
+    integer :: i, c, n_contacts, n_moving
+    integer, allocatable :: moving(:), side(:, :)
     real(dp), allocatable :: v_old(:, :), w_old(:, :), normal_impulse(:), friction_impulse(:, :)
     logical, allocatable :: large(:)
     logical :: woke
@@ -1069,8 +1209,13 @@ contains
     do c = 1, n_contacts
       if (normal_velocity(bodies, self%contacts(c)) > -self%rest_speed) self%contacts(c)%restitution = 0.0_dp
     end do
-    v_old = bodies%v
-    w_old = bodies%w
+    ! the bodies the impulses can change, and their velocities before
+    call group_members(bodies, self%contacts(1:n_contacts), moving, n_moving, side)
+    allocate (v_old(3, n_moving), w_old(3, n_moving))
+    do c = 1, n_moving
+      v_old(:, c) = bodies%v(:, moving(c))
+      w_old(:, c) = bodies%w(:, moving(c))
+    end do
     allocate (normal_impulse(n_contacts), large(n_contacts))
     call resolve_impacts(bodies, self%contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, &
                          self%impulses, err, normal_impulse, self%resting%projection_limit, large)
@@ -1093,8 +1238,13 @@ contains
       end if
     end if
     call remove_residual_approach(self, bodies, self%contacts(1:n_contacts))
-    do i = 1, bodies%n_owned
-      if (any(v_old(:, i) /= bodies%v(:, i)) .or. any(w_old(:, i) /= bodies%w(:, i))) call flight%release(i)
+    do c = 1, n_moving
+      i = moving(c)
+      if (i > bodies%n_owned) cycle
+      if (any(v_old(:, c) /= bodies%v(:, i)) .or. any(w_old(:, c) /= bodies%w(:, i))) then
+        call flight%release(i)
+        if (self%log_events .and. present(time)) call log_impulse(self, bodies, i, time, v_old(:, c), w_old(:, c))
+      end if
     end do
     ! A step of length zero that changed nothing cannot be followed by another.
     if (self%zero_steps > 1000) then
@@ -1103,6 +1253,26 @@ contains
                    ' (smallest separation '//str(self%stats%min_separation)//' m)')
     end if
   end subroutine stage_resolve
+
+  !> One row of the event log: body i's linear and angular impulse at an event at time.
+  subroutine log_impulse(self, bodies, i, time, v_old, w_old)
+    type(collision_stage_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: time, v_old(3), w_old(3)
+    real(dp), allocatable :: grown(:, :)
+    if (.not. allocated(self%log_rows)) allocate (self%log_rows(8, 256))
+    if (self%n_log == size(self%log_rows, 2)) then
+      allocate (grown(8, 2*self%n_log))
+      grown(:, 1:self%n_log) = self%log_rows(:, 1:self%n_log)
+      call move_alloc(grown, self%log_rows)
+    end if
+    self%n_log = self%n_log + 1
+    self%log_rows(1, self%n_log) = time
+    self%log_rows(2, self%n_log) = real(bodies%gid(i), dp)
+    self%log_rows(3:5, self%n_log) = bodies%mass(i)*(bodies%v(:, i) - v_old)
+    self%log_rows(6:8, self%n_log) = bodies%world_inertia_apply(i, bodies%w(:, i)) - bodies%world_inertia_apply(i, w_old)
+  end subroutine log_impulse
 
   !> Keeps, of self%contacts(1:n_contacts), the contact groups (connected through moving
   !> bodies) that hold a moving body of an event pair: an impact is simultaneous with what
@@ -1218,6 +1388,32 @@ contains
     class(collision_stage_t), intent(inout) :: self
     self%n_events = 0
   end subroutine stage_drop_events
+
+  !> Room in the step's pair table for m pairs of n bodies (the local event loop fills the
+  !> table with an island's pairs, or one pair, itself).
+  subroutine stage_reserve_table(self, m, n)
+    class(collision_stage_t), intent(inout) :: self
+    integer, intent(in) :: m, n
+    integer :: c
+    c = max(m, 16)
+    if (allocated(self%pair_gap0)) then
+      if (size(self%pair_gap0) < m) deallocate (self%pair_gap0, self%pair_normal, self%pair_far, self%pair_in_pass)
+    end if
+    if (.not. allocated(self%pair_gap0)) allocate (self%pair_gap0(c), self%pair_normal(3, c), self%pair_far(c), &
+                                                   self%pair_in_pass(c))
+    if (allocated(self%pairs)) then
+      if (size(self%pairs, 2) < m) deallocate (self%pairs)
+    end if
+    if (.not. allocated(self%pairs)) allocate (self%pairs(2, c))
+    if (allocated(self%grid_margin)) then
+      if (size(self%grid_margin) < n) deallocate (self%grid_margin, self%turn)
+    end if
+    if (.not. allocated(self%grid_margin)) then
+      allocate (self%grid_margin(n), self%turn(n))
+      self%grid_margin = 0.0_dp
+      self%turn = 0.0_dp
+    end if
+  end subroutine stage_reserve_table
 
   subroutine stage_wake_all(self, bodies, flight)
     class(collision_stage_t), intent(inout) :: self

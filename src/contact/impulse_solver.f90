@@ -23,29 +23,13 @@ module impulse_solver
   use quaternion, only: quat_rotate, quat_rotate_inverse
   use body_state, only: bodies_t
   use nnls, only: solve_nnls
-  use sorting, only: sort_index_real
+  use contact_point, only: contact_t
+  use islands, only: contact_groups, group_members
   implicit none
   private
-  public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, find_root, unite, scaled_velocity, &
+  public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, scaled_velocity, &
             set_scaled_velocity, scaled_row, group_members, contact_groups
 
-  !> One contact point between bodies a and b (indices into bodies_t, both valid; either
-  !> may be fixed).
-  type :: contact_t
-    integer :: a = 0
-    integer :: b = 0
-    real(dp) :: point(3) = 0.0_dp     !< world contact point [m]
-    real(dp) :: normal(3) = 0.0_dp    !< unit normal from a to b
-    real(dp) :: restitution = 0.0_dp  !< e of this pair (0 below the rest speed; the group uses
-                                      !< the smallest over its approaching contacts)
-    real(dp) :: friction = 0.0_dp     !< Coulomb mu of this pair
-    !> Contact pass, inelastic pairs: this contact may keep approaching at up to this speed,
-    !> the speed that closes its own feature gap to target + tolerance in exactly the step
-    !> (speculative contacts, not yet in the band; also contacts in the band above that
-    !> height); 0 at or below it, and for elastic pairs [m/s].
-    real(dp) :: allowed_approach = 0.0_dp
-    real(dp) :: gap = 0.0_dp          !< distance of the two features when found [m]
-  end type contact_t
 
   type :: impulse_stats_t
     integer :: groups = 0             !< contact groups solved
@@ -125,134 +109,10 @@ contains
     end do
   end subroutine resolve_impacts
 
-  !> The groups of a set of contacts: connected components through moving bodies (a fixed
-  !> body connects nothing; a contact between two fixed bodies is in no group). Group k holds
-  !> contacts group_list(group_start(k):group_start(k+1)-1), in increasing index; groups come
-  !> in the order of their first contact. Cost O(m log m) for m contacts, whatever the size
-  !> of the scene (a floor under 10,000 separate boxes is 10,000 groups per step).
-  subroutine contact_groups(bodies, contacts, group_start, group_list, n_groups)
-    type(bodies_t), intent(in) :: bodies
-    type(contact_t), intent(in) :: contacts(:)
-    integer, allocatable, intent(out) :: group_start(:)   !< (n_groups + 1)
-    integer, allocatable, intent(out) :: group_list(:)    !< contact indices, group by group
-    integer, intent(out) :: n_groups
-    integer, allocatable :: members(:), side(:, :), parent(:), group_of(:), size_of(:), fill(:)
-    integer :: n_members, c, m, root
-    m = size(contacts)
-    call group_members(bodies, contacts, members, n_members, side)
-    ! union-find over the local numbering of the moving bodies
-    allocate (parent(n_members))
-    parent = [(c, c=1, n_members)]
-    do c = 1, m
-      if (side(1, c) > 0 .and. side(2, c) > 0) call unite(parent, side(1, c), side(2, c))
-    end do
-    ! groups numbered in the order of their first contact
-    allocate (group_of(m), size_of(n_members + 1), fill(n_members))
-    fill = 0          ! group number of each root, once seen
-    size_of = 0
-    n_groups = 0
-    do c = 1, m
-      group_of(c) = 0
-      if (side(1, c) == 0 .and. side(2, c) == 0) cycle
-      root = find_root(parent, max(side(1, c), side(2, c)))
-      if (fill(root) == 0) then
-        n_groups = n_groups + 1
-        fill(root) = n_groups
-      end if
-      group_of(c) = fill(root)
-      size_of(group_of(c)) = size_of(group_of(c)) + 1
-    end do
-    allocate (group_start(n_groups + 1), group_list(count(group_of > 0)))
-    group_start(1) = 1
-    do c = 1, n_groups
-      group_start(c + 1) = group_start(c) + size_of(c)
-    end do
-    fill(1:n_groups) = group_start(1:n_groups)
-    do c = 1, m
-      if (group_of(c) == 0) cycle
-      group_list(fill(group_of(c))) = c
-      fill(group_of(c)) = fill(group_of(c)) + 1
-    end do
-  end subroutine contact_groups
 
-  !> The moving bodies of a set of contacts, each once, in order of first appearance
-  !> (members(1:n_members), indices into bodies), and side(1:2, c): the position in members
-  !> of contact c's body a and body b (0 for a fixed body). Sorting, not a table the size of
-  !> the scene: O(m log m) for m contacts (called once per contact group and step).
-  subroutine group_members(bodies, contacts, members, n_members, side)
-    type(bodies_t), intent(in) :: bodies
-    type(contact_t), intent(in) :: contacts(:)
-    integer, allocatable, intent(out) :: members(:)
-    integer, intent(out) :: n_members
-    integer, allocatable, intent(out) :: side(:, :)
-    integer, allocatable :: order(:), first(:), run_of(:)
-    real(dp), allocatable :: ids(:)
-    integer :: m, k, p, n_runs
-    m = size(contacts)
-    allocate (side(2, m), ids(2*m))
-    side = 0
-    ! the sides in order a1, b1, a2, b2, ...; fixed bodies sort first, as 0
-    do k = 1, m
-      ids(2*k - 1) = merge(real(contacts(k)%a, dp), 0.0_dp, moving(bodies, contacts(k)%a))
-      ids(2*k) = merge(real(contacts(k)%b, dp), 0.0_dp, moving(bodies, contacts(k)%b))
-    end do
-    call sort_index_real(ids, order)
-    ! runs of one body; the sort is stable, so a run's first entry is its first appearance
-    allocate (first(2*m), run_of(2*m))
-    n_runs = 0
-    do k = 1, 2*m
-      p = order(k)
-      if (ids(p) == 0.0_dp) cycle
-      if (k == 1) then
-        n_runs = n_runs + 1
-        first(n_runs) = p
-      else if (ids(order(k - 1)) /= ids(p)) then
-        n_runs = n_runs + 1
-        first(n_runs) = p
-      end if
-      run_of(p) = n_runs
-    end do
-    ! members in order of first appearance
-    call sort_index_real(real(first(1:n_runs), dp), order)
-    n_members = n_runs
-    allocate (members(n_members))
-    do k = 1, n_members
-      members(k) = nint(ids(first(order(k))))
-      first(order(k)) = k          ! a run's position in members, from here on
-    end do
-    do p = 1, 2*m
-      if (ids(p) == 0.0_dp) cycle
-      side(2 - mod(p, 2), (p + 1)/2) = first(run_of(p))
-    end do
-  end subroutine group_members
 
-  pure logical function moving(bodies, i)
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(in) :: i
-    moving = .not. bodies%fixed(i)
-  end function moving
 
-  !> Union-find over body indices (contact groups): the root of i's set, with path compression.
-  recursive integer function find_root(parent, i) result(root)
-    integer, intent(inout) :: parent(:)
-    integer, intent(in) :: i
-    if (parent(i) == i) then
-      root = i
-    else
-      root = find_root(parent, parent(i))
-      parent(i) = root
-    end if
-  end function find_root
 
-  !> Joins the sets of i and j (the smaller index becomes the root: order-free groups).
-  subroutine unite(parent, i, j)
-    integer, intent(inout) :: parent(:)
-    integer, intent(in) :: i, j
-    integer :: ri, rj
-    ri = find_root(parent, i)
-    rj = find_root(parent, j)
-    if (ri /= rj) parent(max(ri, rj)) = min(ri, rj)
-  end subroutine unite
 
   !> One connected group: builds the scaled contact matrix E, solves the inelastic
   !> projection and the elastic reflections, blends them with e.

@@ -34,6 +34,7 @@ module resting_contact
   use nnls, only: solve_nnls
   use vector_ops, only: cross
   use sorting, only: sort_index_real, sort_index_keys, find_key
+  use warm_start_cache, only: warm_cache_t
   implicit none
   private
   public :: resting_contact_t, resting_stats_t
@@ -64,7 +65,14 @@ module resting_contact
     integer(i8), allocatable :: cache_keys(:, :) !< sorted keys of the last PGS contacts
     real(dp), allocatable :: cache_force(:, :)   !< their contact forces, world [N]
     integer :: n_cache = 0
+    !> The local event loop: warm starts kept across the passes of different islands
+    !> (persistent), each used if written at or after warm_since [s] (its previous step).
+    logical :: persistent = .false.
+    real(dp) :: warm_since = -huge(1.0_dp)
+    real(dp) :: warm_now = 0.0_dp         !< the time this pass's forces are written at [s]
+    type(warm_cache_t) :: warm
     real(dp), allocatable :: dv(:, :), dw(:, :)  !< velocity changes the last pass gave [m/s, rad/s]
+    logical, allocatable :: involved(:)          !< work array of resolve: false between calls
     type(resting_stats_t) :: stats
     type(pgs_stats_t) :: pgs
     type(impulse_stats_t) :: exact
@@ -79,12 +87,16 @@ contains
   subroutine resting_forget(self)
     class(resting_contact_t), intent(inout) :: self
     self%n_cache = 0
+    call self%warm%clear()
   end subroutine resting_forget
 
   !> The contact pass over the persistent contacts(1:n) (keys: pair_geometry's) for a step
   !> of h [s] under gravity [m/s^2]: sets the loads of the free-flight propagator and the
   !> angular velocities; linear velocities are left at their start-of-step values.
-  subroutine resting_solve(self, bodies, flight, contacts, keys, n, h, gravity, err)
+  !> island, when present: the bodies this pass is for (an island of the local event loop);
+  !> those of them in no persistent contact fly free from now (default: every owned body).
+  !> The cost is that of the contacts and members, never of the whole scene.
+  subroutine resting_solve(self, bodies, flight, contacts, keys, n, h, gravity, err, island)
     class(resting_contact_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
     type(free_flight_t), intent(inout) :: flight
@@ -93,38 +105,43 @@ contains
     integer, intent(in) :: n
     real(dp), intent(in) :: h, gravity(3)
     type(error_t), intent(inout) :: err
+    integer, intent(in), optional :: island(:)
     real(dp), allocatable :: v_start(:, :), w_start(:, :), impulse(:, :), height(:), new_force(:, :), extra(:), &
                              held_impulse(:, :)
     logical, allocatable :: still(:), loaded(:)
     logical :: stuck
     integer(i8), allocatable :: new_keys(:, :)
     type(contact_t), allocatable :: group(:)
-    integer, allocatable :: group_start(:), group_list(:), members(:), order(:)
-    logical, allocatable :: involved(:)
-    integer :: n_bodies, c, i, g, k, slot, n_new, n_groups
-    real(dp) :: dv(3), down(3)
+    integer, allocatable :: group_start(:), group_list(:), members(:), order(:), moving(:), side(:, :)
+    integer :: n_bodies, c, i, g, k, slot, n_new, n_groups, n_moving, m
+    real(dp) :: dv(3), down(3), warm_force(3)
+    logical :: warm_found
 
     n_bodies = bodies%n_owned + bodies%n_ghost
-    allocate (involved(n_bodies))
-    involved = .false.
-    do c = 1, n
-      if (.not. bodies%fixed(contacts(c)%a)) involved(contacts(c)%a) = .true.
-      if (.not. bodies%fixed(contacts(c)%b)) involved(contacts(c)%b) = .true.
+    call ensure_involved(self, n_bodies)
+    ! the moving bodies of the contacts, once each (local numbering: no table of the scene)
+    call group_members(bodies, contacts(1:n), moving, n_moving, side)
+    do k = 1, n_moving
+      self%involved(moving(k)) = .true.
     end do
     if (n > 0) then
       self%stats%passes = self%stats%passes + 1
       self%stats%contacts = self%stats%contacts + n
     end if
-    v_start = bodies%v
-    w_start = bodies%w
+    allocate (v_start(3, n_moving), w_start(3, n_moving))
+    do k = 1, n_moving
+      v_start(:, k) = bodies%v(:, moving(k))
+      w_start(:, k) = bodies%w(:, moving(k))
+    end do
     ! which contacts are still at the step's start (before gravity's impulse): a group all of
     ! whose contacts are is first tried as a whole held still (try_sticking)
     allocate (still(n))
     do c = 1, n
       still(c) = norm2(relative_velocity(bodies, contacts(c))) <= stick_speed
     end do
-    do i = 1, n_bodies
-      if (involved(i)) bodies%v(:, i) = bodies%v(:, i) + h*gravity
+    do k = 1, n_moving
+      i = moving(k)
+      bodies%v(:, i) = bodies%v(:, i) + h*gravity
     end do
 
     ! Groups: contacts connected through moving bodies.
@@ -152,6 +169,14 @@ contains
       allocate (impulse(3, size(members)))
       impulse = 0.0_dp
       do k = 1, size(members)
+        if (self%persistent) then
+          call self%warm%lookup(keys(:, members(k)), self%warm_since, warm_force, warm_found)
+          if (warm_found) then
+            impulse(:, k) = warm_force*h
+            self%stats%warm_starts = self%stats%warm_starts + 1
+          end if
+          cycle
+        end if
         slot = 0
         if (self%n_cache > 0) slot = find_key(self%cache_keys, self%n_cache, keys(:, members(k)))
         if (slot > 0) then
@@ -219,12 +244,20 @@ contains
       end do
       deallocate (impulse)
     end do
-    ! The new cache, sorted by key.
-    call sort_index_keys(new_keys(:, 1:n_new), order)
-    if (allocated(self%cache_keys)) deallocate (self%cache_keys, self%cache_force)
-    self%cache_keys = new_keys(:, order)
-    self%cache_force = new_force(:, order)
-    self%n_cache = n_new
+    if (self%persistent) then
+      ! kept beside the other islands' forces (entries older than this island's previous
+      ! step are of no use to anyone)
+      do k = 1, n_new
+        call self%warm%store(new_keys(:, k), new_force(:, k), self%warm_now, self%warm_since)
+      end do
+    else
+      ! The new cache, sorted by key.
+      call sort_index_keys(new_keys(:, 1:n_new), order)
+      if (allocated(self%cache_keys)) deallocate (self%cache_keys, self%cache_force)
+      self%cache_keys = new_keys(:, order)
+      self%cache_force = new_force(:, order)
+      self%n_cache = n_new
+    end if
 
     ! A body in a persistent contact keeps its new velocity and moves at it over the step
     ! (its gravity for the step is already in it): zero acceleration, released to re-anchor.
@@ -235,20 +268,46 @@ contains
       if (size(self%dv, 2) < n_bodies) deallocate (self%dv, self%dw)
     end if
     if (.not. allocated(self%dv)) allocate (self%dv(3, n_bodies), self%dw(3, n_bodies))
-    do i = 1, bodies%n_owned
-      if (bodies%fixed(i)) cycle
-      if (.not. involved(i)) then
-        call flight%clear_load(i)
-        cycle
-      end if
-      dv = bodies%v(:, i) - (v_start(:, i) + h*gravity)
-      self%dv(:, i) = bodies%v(:, i) - v_start(:, i)
-      self%dw(:, i) = bodies%w(:, i) - w_start(:, i)
+    if (present(island)) then
+      do m = 1, size(island)
+        i = island(m)
+        if (i > bodies%n_owned .or. bodies%fixed(i)) cycle
+        if (.not. self%involved(i)) call flight%clear_load(i)
+      end do
+    else
+      do i = 1, bodies%n_owned
+        if (bodies%fixed(i)) cycle
+        if (.not. self%involved(i)) call flight%clear_load(i)
+      end do
+    end if
+    do k = 1, n_moving
+      i = moving(k)
+      self%involved(i) = .false.
+      if (i > bodies%n_owned) cycle
+      dv = bodies%v(:, i) - (v_start(:, k) + h*gravity)
+      self%dv(:, i) = bodies%v(:, i) - v_start(:, k)
+      self%dw(:, i) = bodies%w(:, i) - w_start(:, k)
       call flight%release(i)
       call flight%set_load(i, [0.0_dp, 0.0_dp, 0.0_dp])
       if (any(dv /= 0.0_dp)) self%stats%loaded = self%stats%loaded + 1
     end do
   end subroutine resting_solve
+
+  !> The per-body flag array of resting_solve, all false between calls (set and cleared for
+  !> the bodies of each pass only).
+  subroutine ensure_involved(self, n)
+    type(resting_contact_t), intent(inout) :: self
+    integer, intent(in) :: n
+    logical, allocatable :: grown(:)
+    if (.not. allocated(self%involved)) then
+      allocate (self%involved(n))
+      self%involved = .false.
+    else if (size(self%involved) < n) then
+      allocate (grown(n))
+      grown = .false.
+      call move_alloc(grown, self%involved)
+    end if
+  end subroutine ensure_involved
 
   !> Staggered projections (Kaufman, Sueda, James and Pai, ACM TOG 27(5), 2008) for a group
   !> with friction of moderate size: alternately the exact normal solve with the friction

@@ -18,7 +18,8 @@ module sleeping
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
   use shape, only: shape_library_t
-  use impulse_solver, only: contact_t, find_root, unite
+  use impulse_solver, only: contact_t
+  use islands, only: body_islands
   implicit none
   private
   public :: sleep_t
@@ -39,6 +40,7 @@ module sleeping
     procedure :: enabled => sleep_enabled
     procedure :: update => sleep_update
     procedure :: wake_touching => sleep_wake_touching
+    procedure :: wake_island_of => sleep_wake_island_of
     procedure :: wake_all => sleep_wake_all
   end type sleep_t
 
@@ -67,49 +69,62 @@ contains
 
   !> After a step of h [s]: quiet times, then islands (joined by the pairs(:, 1:n_pairs)
   !> found in the contact band) whose every body has been quiet for sleep_time fall asleep.
-  subroutine sleep_update(self, bodies, shapes, flight, h, pairs, n_pairs)
+  !> members, when present: the bodies that stepped (an island of the local event loop);
+  !> default: every owned body. The cost is that of the members and pairs.
+  !> asleep_now, when present: the bodies this call put to sleep.
+  subroutine sleep_update(self, bodies, shapes, flight, h, pairs, n_pairs, members, asleep_now, n_asleep_now)
     class(sleep_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
     type(shape_library_t), intent(in) :: shapes
     type(free_flight_t), intent(inout) :: flight
     real(dp), intent(in) :: h
     integer, intent(in) :: pairs(:, :), n_pairs
-    integer, allocatable :: parent(:)
+    integer, intent(in), optional :: members(:)
+    integer, allocatable, intent(inout), optional :: asleep_now(:)
+    integer, intent(out), optional :: n_asleep_now
+    integer, allocatable :: list(:), label(:), root(:)
     real(dp), allocatable :: island_quiet(:)
     real(dp) :: reach
-    integer :: n, i, k, root
+    integer :: n, i, m, k, n_list, n_components
+    logical :: any_quiet
+    if (present(n_asleep_now)) n_asleep_now = 0
     if (.not. self%enabled()) return
-    n = bodies%n_owned
-    do i = 1, n
-      if (bodies%fixed(i)) cycle
+    ! the moving bodies concerned, in increasing index
+    if (present(members)) then
+      list = pack(members, members <= bodies%n_owned)
+    else
+      list = [(i, i=1, bodies%n_owned)]
+    end if
+    list = pack(list, .not. bodies%fixed(list))
+    n_list = size(list)
+    any_quiet = .false.
+    do m = 1, n_list
+      i = list(m)
       reach = shapes%shapes(bodies%shape_id(i))%bounding_radius
       if (norm2(bodies%v(:, i)) < self%speed .and. norm2(bodies%w(:, i))*reach < self%speed) then
         self%quiet(i) = self%quiet(i) + h
       else
         self%quiet(i) = 0.0_dp
       end if
+      if (self%quiet(i) >= self%time) any_quiet = .true.
     end do
-    if (.not. any(self%quiet(1:n) >= self%time .and. .not. bodies%fixed(1:n))) return
+    if (.not. any_quiet) return
     ! Islands: moving bodies joined by band contacts; an island sleeps on its least quiet body.
-    allocate (parent(n), island_quiet(n))
-    parent = [(i, i=1, n)]
-    do k = 1, n_pairs
-      if (pairs(1, k) > n .or. pairs(2, k) > n) cycle
-      if (bodies%fixed(pairs(1, k)) .or. bodies%fixed(pairs(2, k))) cycle
-      call unite(parent, pairs(1, k), pairs(2, k))
-    end do
+    call body_islands(list, n_list, pairs, n_pairs, label, n_components)
+    allocate (island_quiet(n_components), root(n_components))
     island_quiet = huge(1.0_dp)
-    do i = 1, n
-      if (bodies%fixed(i)) cycle
-      root = find_root(parent, i)
-      island_quiet(root) = min(island_quiet(root), self%quiet(i))
+    root = 0
+    do m = 1, n_list
+      k = label(m)
+      if (root(k) == 0) root(k) = list(m)
+      island_quiet(k) = min(island_quiet(k), self%quiet(list(m)))
     end do
-    do i = 1, n
-      if (bodies%fixed(i)) cycle
-      root = find_root(parent, i)
-      if (island_quiet(root) < self%time) cycle
-      ! The island's id: its root body's global id, unique among islands asleep at once.
-      self%island(i) = bodies%gid(root)
+    n = 0
+    do m = 1, n_list
+      i = list(m)
+      if (island_quiet(label(m)) < self%time) cycle
+      ! The island's id: its first body's global id, unique among islands asleep at once.
+      self%island(i) = bodies%gid(root(label(m)))
       self%inv_mass(i) = bodies%inv_mass(i)
       self%inv_inertia(:, i) = bodies%inv_inertia(:, i)
       bodies%asleep(i) = .true.
@@ -124,8 +139,48 @@ contains
       call flight%release(i)
       self%n_asleep = self%n_asleep + 1
       self%sleeps = self%sleeps + 1
+      if (present(asleep_now)) then
+        n = n + 1
+        call push(asleep_now, n, i)
+      end if
     end do
+    if (present(n_asleep_now)) n_asleep_now = n
   end subroutine sleep_update
+
+  !> Wakes the island of asleep body i; the bodies woken go to woken(n_woken+1:), n_woken grows.
+  subroutine sleep_wake_island_of(self, bodies, flight, i, woken, n_woken)
+    class(sleep_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: i
+    integer, allocatable, intent(inout) :: woken(:)
+    integer, intent(inout) :: n_woken
+    integer(i8) :: id
+    integer :: k
+    if (.not. bodies%asleep(i)) return
+    id = self%island(i)
+    ! (a scan of the owned bodies: waking is rare, the islands module's member lists are next)
+    do k = 1, bodies%n_owned
+      if (bodies%asleep(k) .and. self%island(k) == id) then
+        call wake_body(self, bodies, flight, k)
+        n_woken = n_woken + 1
+        call push(woken, n_woken, k)
+      end if
+    end do
+  end subroutine sleep_wake_island_of
+
+  subroutine push(list, n, value)
+    integer, allocatable, intent(inout) :: list(:)
+    integer, intent(in) :: n, value
+    integer, allocatable :: grown(:)
+    if (.not. allocated(list)) allocate (list(16))
+    if (n > size(list)) then
+      allocate (grown(2*size(list)))
+      grown(1:size(list)) = list
+      call move_alloc(grown, list)
+    end if
+    list(n) = value
+  end subroutine push
 
   !> Wakes every island that one of contacts(:) joins to a moving body; woke tells whether
   !> any did (the caller then gathers the contacts again: the woken bodies' contacts with

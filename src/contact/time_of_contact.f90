@@ -92,6 +92,7 @@ contains
     real(dp) :: t, gap, normal(3), dt, aim, safe
     integer :: beyond_safe
     logical :: crawl_limited
+    logical :: separating, probed
     !> With a second-order safe time, a pair hovering just above the band would make the
     !> first-order bound crawl (each query moves the gap little while the turning term says
     !> it may close fast): after this many queries the step ends there (capped, safe) and
@@ -117,6 +118,10 @@ contains
     end if
     beyond_safe = 0
     crawl_limited = .false.
+    probed = .false.
+    separating = dot_product(normal0, motion%v_a - motion%v_b) < -velocity_tolerance
+    t_before = 0.0_dp
+    gap_before = gap0
     if (present(hovering)) crawl_limited = hovering .and. safe > 0.0_dp
     do
       if (result%iterations >= max_iterations .or. beyond_safe > max_beyond_safe) then
@@ -128,6 +133,10 @@ contains
         dt = time_to_close(bound, gap - aim)
       else if (bound%rate > velocity_tolerance .and. .not. (measured_receding .and. t == 0.0_dp)) then
         result%contact = .true.       ! in the band and approaching: an event now
+        ! unless it starts above the aim (a step of the caller ended there): the contact is
+        ! the crossing of the aim, wherever the advancement started
+        if (do_refine .and. t == 0.0_dp .and. gap > aim) &
+          call refine_crossing(oracle, motion, step, target, aim, tolerance, t, gap, t, gap, normal, result)
         exit
       else if (bound%rate < -velocity_tolerance) then
         dt = time_to_close(bound, 0.0_dp)
@@ -150,6 +159,21 @@ contains
       if (crawl_limited) beyond_safe = beyond_safe + 1
       call oracle%gap_at(t, gap, normal)
       result%iterations = result%iterations + 1
+      if (gap <= target + tolerance .and. do_refine .and. gap_before <= target + tolerance .and. &
+          separating .and. .not. probed) then
+        ! Started in the band, separating, and back in it after a jump (a second-order safe
+        ! time): the pair may have left the band and come back (a bounce, then another corner
+        ! turning in). Its contact is then the crossing of the aim on the way back, not this
+        ! point, which depends on where the advancement started: look for a time above the
+        ! band in between and advance from there (first-order, refined) instead.
+        probed = .true.
+        call find_above_band(t_before, t, gap, normal)
+        if (gap > target + tolerance) then
+          safe = 0.0_dp
+          crawl_limited = .false.
+          cycle
+        end if
+      end if
       if (gap <= target + tolerance) then
         result%contact = .true.
         ! from above the band, aiming at `aim`: the crossing of the aim, exactly
@@ -162,6 +186,27 @@ contains
     result%time = t
     result%gap = gap
     result%normal = normal
+  contains
+    !> Probes at 1/2, 1/4 and 3/4 of [t1, t2]: on return (t, g, n) is the first one above the
+    !> band, or (t2, g, n) unchanged if none is.
+    subroutine find_above_band(t1, t2, g, n)
+      real(dp), intent(in) :: t1
+      real(dp), intent(inout) :: t2, g, n(3)
+      real(dp), parameter :: fractions(3) = [0.5_dp, 0.25_dp, 0.75_dp]
+      real(dp) :: tm, gm, nm(3)
+      integer :: m
+      do m = 1, size(fractions)
+        tm = t1 + fractions(m)*(t2 - t1)
+        call oracle%gap_at(tm, gm, nm)
+        result%iterations = result%iterations + 1
+        if (gm > target + tolerance) then
+          t2 = tm
+          g = gm
+          n = nm
+          return
+        end if
+      end do
+    end subroutine find_above_band
   end subroutine advance_pair
 
   !> The time the gap crosses `aim` (target + tolerance/2), after conservative advancement
@@ -181,15 +226,20 @@ contains
     real(dp), intent(inout) :: t, gap, normal(3)
     type(advancement_result_t), intent(inout) :: result
     !> Queries beyond the advancement's own; the secant converges superlinearly.
-    integer, parameter :: max_refinements = 40
+    integer, parameter :: max_refinements = 60
     real(dp) :: lo, g_lo, n_lo(3), lo_prev, g_lo_prev, hi, s, g_s, n_s(3), limit, slope, eps_gap
     real(dp) :: f_lo, f_hi       ! regula falsi: gap - aim at lo and hi, Illinois-weighted
     type(closing_bound_t) :: bound_lo
-    logical :: bracketed
-    integer :: k, side
-    ! gaps are measured to round-off of the positions; a billionth of the tolerance is far below
-    ! any physical scale of the contact and at or below that round-off
-    eps_gap = 1.0e-9_dp*tolerance
+    logical :: bracketed, beyond
+    integer :: k, side, stalled
+    real(dp) :: best
+    !> Probes in a row that do not come closer to the aim: the gap is at its round-off.
+    integer, parameter :: max_stalled = 3
+    ! gaps are measured to round-off of the positions (1e-16 m at 1 m from the origin); the
+    ! search goes on to that, or until the bracket is a few floating-point times wide, or
+    ! until probes stop coming closer (round-off of the gap larger than eps_gap)
+    eps_gap = 1.0e-10_dp*tolerance
+    stalled = 0
     lo = t
     g_lo = gap
     n_lo = normal
@@ -200,8 +250,23 @@ contains
     f_lo = g_lo - aim
     f_hi = 0.0_dp
     side = 0
+    beyond = .false.
+    if (gap < aim - eps_gap) then
+      ! Past the aim already: a second-order safe time (plane_bound) let the advancement
+      ! jump beyond it, to a point it certified (gap >= its floor up to there); the crossing
+      ! lies between the point before and this one.
+      lo = t_prev
+      g_lo = gap_prev
+      n_lo = normal
+      f_lo = g_lo - aim
+      hi = t
+      f_hi = gap - aim
+      bracketed = .true.
+      side = -1
+    end if
+    best = abs(g_lo - aim)
     do k = 1, max_refinements
-      if (abs(g_lo - aim) <= eps_gap) exit
+      if (abs(g_lo - aim) <= eps_gap .or. stalled >= max_stalled) exit
       ! the bound from lo: every time up to `limit` keeps the gap at or above the target
       limit = min(step, lo + time_to_close(closing_bound(motion, n_lo, lo), g_lo - target))
       if (bracketed) then
@@ -209,12 +274,17 @@ contains
         s = lo + f_lo*(hi - lo)/(f_lo - f_hi)
         if (.not. (s > lo .and. s < hi)) s = 0.5_dp*(lo + hi)
       else
-        slope = (g_lo - g_lo_prev)/(lo - lo_prev)
+        slope = 0.0_dp                 ! (no point before lo when starting in the band)
+        if (lo > lo_prev) slope = (g_lo - g_lo_prev)/(lo - lo_prev)
         if (.not. (slope < 0.0_dp)) then
           ! not closing between the last two points: the bound's rate
           bound_lo = closing_bound(motion, n_lo, lo)
           slope = -bound_lo%rate
-          if (.not. (slope < 0.0_dp)) exit
+          if (.not. (slope < 0.0_dp)) then
+            ! the pair cannot close from here: no contact yet, safe up to lo
+            beyond = .true.
+            exit
+          end if
         end if
         s = lo + (g_lo - aim)/(-slope)
       end if
@@ -224,6 +294,12 @@ contains
       end if
       call oracle%gap_at(s, g_s, n_s)
       result%iterations = result%iterations + 1
+      if (abs(g_s - aim) < best) then
+        best = abs(g_s - aim)
+        stalled = 0
+      else
+        stalled = stalled + 1
+      end if
       if (abs(g_s - aim) <= eps_gap) then
         lo = s
         g_lo = g_s
@@ -238,7 +314,10 @@ contains
         f_lo = g_s - aim
         if (bracketed .and. side == 1) f_hi = 0.5_dp*f_hi      ! Illinois: the stale end halves
         side = 1
-        if (.not. bracketed .and. s >= step) exit               ! no crossing within the step
+        if (.not. bracketed .and. s >= step) then
+          beyond = .true.                                       ! no crossing within the step
+          exit
+        end if
       else
         hi = s
         f_hi = g_s - aim
@@ -247,10 +326,17 @@ contains
         bracketed = .true.
       end if
     end do
+    ! stopped at the step's end still above the aim: the crossing is beyond it
+    if (lo >= step .and. abs(g_lo - aim) > eps_gap) beyond = .true.
     t = lo
     gap = g_lo
     normal = n_lo
-    if (gap > target + tolerance) result%contact = .false.   ! the crossing is beyond the step
+    if (beyond .or. gap > target + tolerance) then
+      ! the crossing is beyond the step, or not certified yet: no contact, and the pair is
+      ! safe up to t (capped when that is before the step's end)
+      result%contact = .false.
+      result%capped = t < step
+    end if
   end subroutine refine_crossing
 
   !> The closing bound from time t on: velocities have changed by a t since the step began.

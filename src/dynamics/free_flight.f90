@@ -38,6 +38,9 @@ module free_flight
     procedure :: release_all => flight_release_all
     procedure :: advance => flight_advance
     procedure :: pose_at => flight_pose_at
+    procedure :: anchor_at => flight_anchor_at
+    procedure :: evaluate => flight_evaluate
+    procedure :: is_anchored => flight_is_anchored
   end type free_flight_t
 
 contains
@@ -157,6 +160,42 @@ contains
     end if
   end subroutine flight_pose_at
 
+  !> Exact mode: body i's anchor is taken now, at time_now, from its state in bodies (the
+  !> local event loop anchors a body as soon as its trajectory changes, instead of at its
+  !> next step).
+  subroutine flight_anchor_at(self, bodies, i, time_now)
+    class(free_flight_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: time_now
+    if (self%exact .and. .not. bodies%fixed(i)) call anchor(self, bodies, i, time_now)
+  end subroutine flight_anchor_at
+
+  !> Exact mode: is body i anchored (its trajectory known from its anchor)?
+  pure logical function flight_is_anchored(self, i)
+    class(free_flight_t), intent(in) :: self
+    integer, intent(in) :: i
+    flight_is_anchored = .false.
+    if (self%exact) flight_is_anchored = self%anchored(i)
+  end function flight_is_anchored
+
+  !> Exact mode: body i's state at time t from its anchor, into bodies (x, q, v, w, a), by
+  !> the same arithmetic as advance, so a body evaluated at t holds the state a step to t
+  !> gives it.
+  subroutine flight_evaluate(self, bodies, i, t, gravity)
+    class(free_flight_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t, gravity(3)
+    real(dp) :: tau, a(3)
+    tau = t - self%t0(i)
+    a = self%acceleration(i, gravity)
+    bodies%x(:, i) = self%x0(:, i) + self%v0(:, i)*tau + (0.5_dp*tau*tau)*a
+    bodies%v(:, i) = self%v0(:, i) + tau*a
+    bodies%a(:, i) = a
+    call self%rotors(i)%evaluate(tau, bodies%q(:, i), bodies%w(:, i))
+  end subroutine flight_evaluate
+
   subroutine anchor(self, bodies, i, time_now)
     type(free_flight_t), intent(inout) :: self
     type(bodies_t), intent(in) :: bodies
@@ -179,7 +218,6 @@ contains
     type(integrator_config_t), intent(in) :: config
     type(free_flight_stats_t), intent(inout) :: stats
     integer :: i
-    real(dp) :: tau, a(3)
     if (.not. self%exact) then
       ! The acceleration is constant over the step (gravity, or gravity plus a resting
       ! contact's force), so Newmark's start and end accelerations are the same.
@@ -192,12 +230,7 @@ contains
     do i = 1, bodies%n_owned
       if (bodies%fixed(i)) cycle
       if (.not. self%anchored(i)) call anchor(self, bodies, i, time_old)
-      tau = time_new - self%t0(i)
-      a = self%acceleration(i, gravity)
-      bodies%x(:, i) = self%x0(:, i) + self%v0(:, i)*tau + (0.5_dp*tau*tau)*a
-      bodies%v(:, i) = self%v0(:, i) + tau*a
-      bodies%a(:, i) = a
-      call self%rotors(i)%evaluate(tau, bodies%q(:, i), bodies%w(:, i))
+      call self%evaluate(bodies, i, time_new, gravity)
       stats%rotation_updates = stats%rotation_updates + 1
     end do
   end subroutine flight_advance

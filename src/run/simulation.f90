@@ -7,19 +7,21 @@ module simulation
   use error_status, only: error_t, ERR_INPUT, ERR_NUMERIC, ERR_CHECKPOINT
   use string_utils, only: str, join_path
   use parallel_env, only: parallel_t
-  use input_config, only: deck_t
+  use input_config, only: deck_t, EVENTS_LOCAL, EVENTS_GLOBAL, ROTATION_EXACT
   use shape, only: shape_library_t
   use body_state, only: bodies_t
   use body_builder, only: build_shapes, build_bodies, count_bodies, owned_range
   use conservation, only: system_totals_t, compute_totals
   use overlap_check, only: check_initial_overlaps
   use collision_stage, only: collision_stage_t, smallest_moving_extent
+  use event_loop, only: event_loop_t
   use newmark_integrator, only: free_flight_stats_t
   use free_flight, only: free_flight_t
   use history_writer, only: history_writer_t, history_record_t, history_fresh_start
   use frame_writer, only: frame_writer_t
   use checkpoint_meta, only: checkpoint_meta_t, bodies_checksum
   use checkpoint_io, only: write_checkpoint, read_checkpoint, check_checkpoint_matches
+  use event_log_writer, only: write_event_log
   implicit none
   private
   public :: simulation_t
@@ -60,6 +62,8 @@ module simulation
     type(free_flight_stats_t) :: flight
     type(free_flight_t) :: propagator         !< moves bodies between events
     type(collision_stage_t) :: collisions     !< times of contact and impulses
+    type(event_loop_t) :: events              !< the local event loop (local = .true.)
+    logical :: local = .false.                !< events = 'local': the local loop, not global steps
     logical :: restarted = .false.
   contains
     procedure :: init => simulation_init
@@ -112,6 +116,21 @@ contains
       'ricochet: warning: on several ranks, collisions between bodies of different ranks are not '// &
       'detected yet (bodies are split by id, no halo exchange): run collision scenes on one rank'
 
+    self%collisions%log_events = deck%output%event_log
+    ! The event loop: local (default with exact rotation) or global steps.
+    select case (trim(deck%integrator%events))
+    case (EVENTS_LOCAL)
+      if (deck%integrator%rotation /= ROTATION_EXACT) then
+        call err%set(ERR_INPUT, deck%path//": &integrator: events = 'local' needs rotation = 'exact' (bodies are "// &
+                     "evaluated from their anchors); use events = 'global' with rotation = 'newmark'")
+        return
+      end if
+      self%local = .true.
+    case (EVENTS_GLOBAL)
+      self%local = .false.
+    case default
+      self%local = deck%integrator%rotation == ROTATION_EXACT
+    end select
     if (deck%output%checkpoint_interval > 0.0_dp) then
       self%next_checkpoint = deck%output%checkpoint_interval
     end if
@@ -142,7 +161,11 @@ contains
       call self%record_history(par, err)
       if (err%failed()) return
       call self%write_frame(par, err)
+      if (err%failed()) return
     end if
+    if (self%local) call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, &
+                                          deck%run%gravity, deck%integrator, self%time, deck%run%dt_max, &
+                                          min(deck%run%t_end, self%next_checkpoint), err)
   end subroutine simulation_init
 
   !> A deck whose bodies overlap at the start is refused. Every rank checks every pair (the
@@ -258,6 +281,10 @@ contains
 
     t_end = self%deck%run%t_end
     dt_max = self%deck%run%dt_max
+    if (self%local) then
+      call run_local(self, par, err)
+      return
+    end if
     do while (self%time < t_end)
       ! The step: dt_max, shortened to land exactly on the next output, checkpoint or end.
       target = min(t_end, self%next_output, self%next_checkpoint)
@@ -313,7 +340,7 @@ contains
       self%time = time_new
       clock = par%wtime()
       call self%collisions%return_unused_pass(self%bodies, self%propagator, h)
-      call self%collisions%resolve(self%bodies, self%shapes, self%propagator, h, h_planned, err)
+      call self%collisions%resolve(self%bodies, self%shapes, self%propagator, h, h_planned, err, time=self%time)
       if (err%failed()) return
       call self%collisions%settle(self%bodies, self%shapes, self%propagator, h)
       self%resolve_wall = self%resolve_wall + (par%wtime() - clock)
@@ -336,7 +363,85 @@ contains
       call progress(self, par)
     end do
     call self%write_checkpoint_now(par, 'checkpoint_final', err)
+    if (err%ok()) call write_events(self, par, err)
   end subroutine simulation_run
+
+  !> The run with the local event loop: events processed up to each output, history,
+  !> checkpoint or end time, where every body is evaluated and the outputs written; after a
+  !> checkpoint the loop is built again from the state written, as a restart builds it.
+  subroutine run_local(self, par, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    type(error_t), intent(inout) :: err
+    real(dp) :: t_end, t_stop, t_hard, clock
+    logical :: hits_output, hits_checkpoint, hits_history
+    integer(i8) :: events_before
+    t_end = self%deck%run%t_end
+    do while (self%time < t_end)
+      t_stop = min(t_end, self%next_output, self%next_history, self%next_checkpoint)
+      t_hard = min(t_end, self%next_checkpoint)
+      clock = par%wtime()
+      events_before = self%events%stats%impacts + self%events%stats%island_steps
+      call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_stop, t_hard, err)
+      if (err%failed()) return
+      self%detection_wall = self%detection_wall + (par%wtime() - clock)
+      ! (events of every rank: the same count on any number of ranks)
+      self%step = self%step + par%sum(self%events%stats%impacts + self%events%stats%island_steps - events_before)
+      self%last_dt = t_stop - self%time
+      self%time = t_stop
+      clock = par%wtime()
+      call self%events%synchronize(self%bodies, self%propagator, self%time)
+      self%integration_wall = self%integration_wall + (par%wtime() - clock)
+      self%collisions%stats%events = self%events%stats%impacts
+      hits_output = self%time >= self%next_output
+      hits_checkpoint = self%time >= self%next_checkpoint
+      hits_history = self%time >= self%next_history
+      if (hits_output .or. hits_history .or. self%time >= t_end) then
+        call self%record_history(par, err)
+        if (err%failed()) return
+        self%next_history = next_multiple(self%time, self%history_interval)
+      end if
+      if (hits_output .or. self%time >= t_end) then
+        call self%write_frame(par, err)
+        if (err%failed()) return
+      end if
+      if (hits_checkpoint .and. self%time < t_end) then
+        call self%write_checkpoint_now(par, 'checkpoint_'// &
+                                       str6(nint(self%time/self%deck%output%checkpoint_interval)), err)
+        if (err%failed()) return
+        ! built again from the state written, exactly as a restart from it builds it
+        call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
+                              self%deck%integrator, self%time, self%deck%run%dt_max, &
+                              min(t_end, self%next_checkpoint), err)
+        if (err%failed()) return
+      end if
+      call progress(self, par)
+    end do
+    call self%write_checkpoint_now(par, 'checkpoint_final', err)
+    if (err%ok()) call write_events(self, par, err)
+  end subroutine run_local
+
+  !> The event log (&output event_log), one file per rank (events.csv on one rank).
+  subroutine write_events(self, par, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    type(error_t), intent(inout) :: err
+    character(len=:), allocatable :: name
+    if (.not. self%collisions%log_events) return
+    name = 'events.csv'
+    if (par%n_ranks > 1) name = 'events_rank'//str(par%rank)//'.csv'
+    if (.not. allocated(self%collisions%log_rows)) allocate (self%collisions%log_rows(8, 0))
+    call write_event_log(join_path(self%output_dir, name), self%collisions%log_rows, self%collisions%n_log, err)
+  end subroutine write_events
+
+  !> The first multiple of interval after time (k interval computed, never accumulated).
+  pure real(dp) function next_multiple(time, interval) result(next)
+    real(dp), intent(in) :: time, interval
+    real(dp) :: k
+    k = aint(time/interval) + 1.0_dp
+    next = k*interval
+    if (next <= time) next = (k + 1.0_dp)*interval
+  end function next_multiple
 
   function str6(i) result(text)
     integer, intent(in) :: i
@@ -501,6 +606,18 @@ contains
       self%collisions%stats%contacts, ' contact points, ', self%collisions%impulses%groups, ' impulse groups, ', &
       self%collisions%stats%corrections, ' distance corrections, '// &
       str(self%collisions%stats%corrections_capped)//' of them cut to half the band)'
+    if (self%local) then
+      associate (ev => self%events%stats)
+        write (*, '(a)') '  local events         '//str(ev%impacts)//' impacts, '//str(ev%island_steps)//' island steps ('// &
+          str(ev%body_steps)//' body-steps, '//str(ev%island_cuts)//' cut by impacts, '//str(ev%joins)// &
+          ' bodies waited to join), '//str(ev%enters)//' pairs came within reach of a pass'
+        write (*, '(a)') '  pair certificates    '//str(ev%certificates)//' ('//str(ev%far_certificates)// &
+          ' from bounding volumes), '//str(ev%crossings)//' box crossings'
+        write (*, '(a)') '  body updates         '//str(ev%evaluations)//' for events, '//str(ev%output_evaluations)// &
+          ' for outputs, '//str(ev%trajectory_changes)//' trajectory changes; '// &
+          str(self%events%bodies_unchanged(self%bodies))//' bodies never changed trajectory'
+      end associate
+    end if
     write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', self%collisions%stats%pair_tests, ' pair queries, ', &
       self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, &
       ' capped, '//str(self%collisions%stats%plane_skips)//' started from a second-order safe time)'

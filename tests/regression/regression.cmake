@@ -64,16 +64,15 @@ if(RICOCHET_USE_HDF5)
   endforeach()
   ricochet_python_case(demo check_resting.py demo $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/demo.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_demo)
-  # Issue 6's piles: 1000 cubes (about 3 min), 1000 tetrahedra (1.5 min), 200 L-prisms (35 s)
+  # Issue 6's piles (local loop, two at a time): 1000 cubes and 1000 tetrahedra (2.5 min each),
+  # 200 L-prisms (40 s)
   foreach(kind cubes tetrahedra l_shapes)
     ricochet_python_case(pile_${kind} check_resting.py pile $<TARGET_FILE:ricochet>
                          ${PROJECT_SOURCE_DIR}/input/validation/pile_${kind}.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_pile_${kind})
     set_tests_properties(regression.pile_${kind} PROPERTIES LABELS "regression;slow")
   endforeach()
-  # 23 s: the pyramid's first second (exact normal solves of 15 boxes every step) before it sleeps
-  set_tests_properties(regression.pyramid PROPERTIES LABELS "regression;slow")
-  # ~27 s: 8 cubes landing on each other are ~5,000 global events before they sleep at 2.4 s
-  set_tests_properties(regression.pile_small PROPERTIES LABELS "regression;slow")
+  # (the pyramid and the 8-cube pile took 23 s and 27 s in the global loop, 1 s each in the
+  # local one: no longer labelled slow)
   ricochet_python_case(tori_chain check_collisions.py tori_chain $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/tori_chain.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_tori_chain)
   ricochet_python_case(bouncing_mesh_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
@@ -81,6 +80,12 @@ if(RICOCHET_USE_HDF5)
                        ${PROJECT_SOURCE_DIR}/input/meshes/icosphere_face_down.obj)
   ricochet_python_case(free_rotation_deck check_free_rotation.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_free_rotation_deck ${RICOCHET_TEST_DATA}/free_rotation_I123.csv)
+  # The local event loop against the global one on gases of 200 spheres and 200 cubes (5 s)
+  ricochet_python_case(local_events check_local_events.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_local_events)
+  # A chain A -> B -> C (a stale bound would tunnel) and a free cluster never stepped (2 s)
+  ricochet_python_case(local_cases check_local_cases.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_local_cases)
   # (runs a few valid decks too, which write output)
   ricochet_python_case(input_errors check_errors.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_input_errors ${RICOCHET_TEST_DATA})

@@ -16,11 +16,11 @@ module output_group
 
   type(output_config_t), parameter :: output_default = output_config_t()
 
-  type(var_spec_t), parameter :: output_vars(7) = [ &
+  type(var_spec_t), parameter :: output_vars(8) = [ &
     var_spec_t('dir', V_CHARACTER, 1, len(output_default%dir)), var_spec_t('interval', V_REAL, 1, 0), &
     var_spec_t('checkpoint_interval', V_REAL, 1, 0), var_spec_t('progress_interval', V_REAL, 1, 0), &
     var_spec_t('history_interval', V_REAL, 1, 0), var_spec_t('write_frames', V_LOGICAL, 1, 0), &
-    var_spec_t('check_overlaps', V_LOGICAL, 1, 0)]
+    var_spec_t('check_overlaps', V_LOGICAL, 1, 0), var_spec_t('event_log', V_LOGICAL, 1, 0)]
 
 contains
 
@@ -33,12 +33,12 @@ contains
     type(group_input_t) :: g
     character(len=len(config%dir)) :: dir
     real(dp) :: interval, checkpoint_interval, progress_interval, history_interval
-    logical :: write_frames, check_overlaps
+    logical :: write_frames, check_overlaps, event_log
     character(len=:), allocatable :: resolved
     integer :: ios
     character(len=512) :: msg
     namelist /output/ dir, interval, checkpoint_interval, progress_interval, history_interval, write_frames, &
-      check_overlaps
+      check_overlaps, event_log
 
     call open_group(src, group, output_vars, '&output', g)
     call prepare_group(g, err)
@@ -50,6 +50,7 @@ contains
     history_interval = config%history_interval
     write_frames = config%write_frames
     check_overlaps = config%check_overlaps
+    event_log = config%event_log
     msg = ''
     read (g%text, nml=output, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -62,6 +63,7 @@ contains
     config%history_interval = history_interval
     config%write_frames = write_frames
     config%check_overlaps = check_overlaps
+    config%event_log = event_log
 
     call require_finite(g, err, 'interval', [interval])
     call require_finite(g, err, 'history_interval', [history_interval])
@@ -110,6 +112,7 @@ contains
     call put_real(unit, 'history_interval', [config%history_interval], note)
     call put_logical(unit, 'write_frames', config%write_frames)
     call put_logical(unit, 'check_overlaps', config%check_overlaps)
+    call put_logical(unit, 'event_log', config%event_log)
     write (unit, '(a)') '/'
   end subroutine write_output_group
 

@@ -1,0 +1,1536 @@
+!> The local event loop (`&integrator events = 'local'`, docs/architecture.md "Local
+!> events"): the cost of a collision is that of the bodies it changes, not of the scene.
+!>
+!>  - Bodies are not stepped. Each is its anchor (the state at its last change of trajectory)
+!>    plus its exact flow (free_flight, exact mode), evaluated at the time an event, a frame
+!>    or a checkpoint needs it. A trajectory version per body counts its changes.
+!>  - Every candidate pair (cell_grid: the bodies' regions overlap) keeps a certificate in
+!>    pair_store: a time before which it cannot reach its aim, from its last closest-point
+!>    query and both bodies' motion bounds, stamped with both versions. One priority queue
+!>    per kind of event (pairs, box crossings, islands; event_queue) orders them; a pair is
+!>    queried again only when its certificate comes due or a version changes.
+!>  - An impact changes the bodies of its impulse group (the band contacts connected to the
+!>    pair through moving bodies): only their anchors, pairs and regions are updated.
+!>  - Bodies held by a contact pass form islands (contact/islands), each stepping with its
+!>    own step from its own clock, with the global loop's contact pass, distance correction
+!>    and sleeping restricted to it; every other island and every free body goes on
+!>    without it. An impact on an island cuts its step there (the pass's unused part is
+!>    taken back, as the global loop does when an event cuts its step).
+!> Events at one time are taken pairs and crossings first (by global ids), then the
+!> outputs (the caller's, at the stop time), then island steps, so that a checkpoint sees
+!> what a restart from it sees.
+module event_loop
+  use kinds, only: dp, i8
+  use error_status, only: error_t, ERR_NUMERIC
+  use string_utils, only: str
+  use input_config, only: integrator_config_t
+  use shape, only: shape_library_t, SHAPE_SPHERE
+  use body_state, only: bodies_t
+  use free_flight, only: free_flight_t
+  use collision_stage, only: collision_stage_t, turning_reach
+  use pair_geometry, only: pair_gap, point_box_gap
+  use advancement_bound, only: closing_bound_t, time_to_close
+  use time_of_contact, only: advancement_result_t
+  use pair_store, only: pair_store_t, ACTION_NONE, ACTION_QUERY, ACTION_IMPACT, ACTION_ENTER
+  use event_queue, only: event_queue_t
+  use cell_grid, only: cell_grid_t
+  use islands, only: island_table_t, body_islands
+  use sorting, only: sort_index_keys
+  implicit none
+  private
+  public :: event_loop_t, event_stats_t
+
+  !> "Never" [s]: later than any run, far from overflow in t + dt.
+  real(dp), parameter :: far_future = 1.0e30_dp
+  !> Closest-point queries one certificate may spend before it is queued again (a pair that
+  !> converges slowly is then re-examined lazily, and may be invalidated before that).
+  integer, parameter :: queries_per_certificate = 16
+  !> A certificate by conservative advancement reaches at most this many dt_max ahead.
+  real(dp), parameter :: lookahead_steps = 10.0_dp
+
+  type :: event_stats_t
+    integer(i8) :: impacts = 0           !< impact events
+    integer(i8) :: certificates = 0      !< pair certificates computed
+    integer(i8) :: far_certificates = 0  !< of them from bounding volumes alone (no closest points)
+    integer(i8) :: island_steps = 0      !< island steps taken
+    integer(i8) :: body_steps = 0        !< members stepped, summed over island steps
+    integer(i8) :: island_cuts = 0       !< island steps cut short by an impact
+    integer(i8) :: crossings = 0         !< bodies placed again in the grid (box crossings)
+    integer(i8) :: evaluations = 0       !< bodies evaluated from their anchors for events
+    integer(i8) :: output_evaluations = 0  !< ... for frames, history rows and checkpoints
+    integer(i8) :: trajectory_changes = 0  !< anchors taken after a change (version increments)
+    integer(i8) :: enters = 0            !< free pairs that came within reach of a contact pass
+    integer(i8) :: joins = 0             !< free bodies that joined an island at its next step
+  end type event_stats_t
+
+  type :: event_loop_t
+    real(dp) :: time = 0.0_dp             !< every event before this has been processed [s]
+    real(dp) :: gravity(3) = 0.0_dp
+    real(dp) :: dt_max = 0.0_dp
+    real(dp) :: t_hard = huge(1.0_dp)     !< island steps end here (checkpoint or end) [s]
+    real(dp) :: margin = 0.0_dp           !< region margin of a moving body [m]
+    real(dp) :: near = 0.0_dp             !< closer than this a pair gets closest points [m]
+    real(dp) :: band = 0.0_dp             !< contact band: target + tolerance + contact tolerance [m]
+    logical :: use_pass = .false.         !< gravity or inelastic pairs: contact passes and islands
+    type(integrator_config_t) :: config
+    type(pair_store_t) :: pairs
+    type(event_queue_t) :: pair_queue, body_queue, island_queue
+    type(cell_grid_t) :: cells
+    type(island_table_t) :: islands
+    integer(i8), allocatable :: version(:)       !< trajectory version per body
+    integer(i8), allocatable :: changes(:)       !< trajectory changes per body, this run
+    real(dp), allocatable :: state_time(:)       !< time bodies%x, q, v, w of the body hold [s]
+    real(dp), allocatable :: expiry(:)           !< its trajectory is certain until here [s]
+    real(dp), allocatable :: region_x(:, :)      !< centre it was placed at in the grid [m]
+    integer, allocatable :: island_of(:)         !< island slot, 0 if in none
+    integer, allocatable :: mark(:)              !< per body: scratch stamps
+    integer, allocatable :: pair_mark(:)         !< per pair slot: scratch stamps
+    integer :: stamp = 0
+    integer :: zero_impacts = 0                  !< consecutive impacts that changed nothing
+    type(event_stats_t) :: stats
+    integer, allocatable :: found(:)
+  contains
+    procedure :: init => loop_init
+    procedure :: run_until => loop_run_until
+    procedure :: synchronize => loop_synchronize
+    procedure :: next_event_time => loop_next_event_time
+    procedure :: bodies_unchanged => loop_bodies_unchanged
+  end type event_loop_t
+
+contains
+
+  !> Builds the loop from the state in bodies at time t: every moving body anchored there,
+  !> placed in the grid, every candidate pair certified, and (with contact passes) the
+  !> islands of the bodies within reach of one another stepped once. The same at the start,
+  !> at a restart and after a checkpoint, so that a restart continues as the run did.
+  !> t_hard: island steps end there (the next checkpoint or the end) [s].
+  subroutine loop_init(self, stage, bodies, shapes, flight, gravity, config, t, dt_max, t_hard, err)
+    class(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    real(dp), intent(in) :: gravity(3), t, dt_max, t_hard
+    type(integrator_config_t), intent(in) :: config
+    type(error_t), intent(inout) :: err
+    integer :: n, i, j, k, slot
+    integer, allocatable :: seeds(:)
+    integer :: n_seeds
+    n = bodies%n_owned + bodies%n_ghost
+    self%time = t
+    self%gravity = gravity
+    self%config = config
+    self%dt_max = dt_max
+    self%t_hard = t_hard
+    self%band = stage%target + stage%tolerance + stage%contact_tolerance
+    ! A body moves at most half a grid box before it is placed again; two bodies within
+    ! the band of each other always have overlapping regions.
+    self%margin = 0.5_dp*stage%box_size
+    self%near = 0.25_dp*stage%box_size + 2.0_dp*self%band
+    self%use_pass = norm2(gravity) > 0.0_dp
+    stage%resting%persistent = .true.
+    if (allocated(stage%materials%restitution)) then
+      if (size(stage%materials%restitution) > 0) self%use_pass = self%use_pass .or. &
+                                                                minval(stage%materials%restitution) <= 0.0_dp
+    end if
+    if (allocated(self%version)) then
+      if (size(self%version) < n) deallocate (self%version, self%changes)
+    end if
+    if (.not. allocated(self%version)) then
+      allocate (self%version(n), self%changes(n))
+      self%version = 0
+      self%changes = 0
+    end if
+    if (allocated(self%state_time)) deallocate (self%state_time, self%expiry, self%region_x, self%island_of, &
+                                                self%mark)
+    allocate (self%state_time(n), self%expiry(n), self%region_x(3, n), self%island_of(n), self%mark(n))
+    self%state_time = t
+    self%expiry = far_future
+    self%island_of = 0
+    self%mark = 0
+    self%stamp = 0
+    self%zero_impacts = 0
+    call self%pairs%init(n, 8*n)
+    if (allocated(self%pair_mark)) deallocate (self%pair_mark)
+    allocate (self%pair_mark(0))
+    call self%pair_queue%init(8*n)
+    call self%body_queue%init(n)
+    call self%island_queue%init(16)
+    call self%islands%init()
+    call self%cells%init(stage%box_size, n, err)
+    if (err%failed()) return
+    call stage%reserve_table(16, n)
+    do i = 1, n
+      if (.not. bodies%fixed(i)) then
+        call flight%anchor_at(bodies, i, t)
+        self%version(i) = self%version(i) + 1
+      end if
+      call place(self, bodies, shapes, i, err)
+      if (err%failed()) return
+    end do
+    ! candidate pairs: every moving body asks the grid (static-static pairs are never made)
+    do i = 1, n
+      if (bodies%fixed(i)) cycle
+      call self%cells%query(i, self%found, k, n)
+      do j = 1, k
+        if (self%pairs%find(i, self%found(j)) > 0) cycle
+        slot = self%pairs%add(i, self%found(j), bodies%gid(i), bodies%gid(self%found(j)))
+      end do
+    end do
+    call ensure_pair_marks(self)
+    do slot = 1, self%pairs%n_slots
+      if (self%pairs%a(slot) == 0) cycle
+      call certify(self, stage, bodies, shapes, flight, slot, t, err)
+      if (err%failed()) return
+    end do
+    do i = 1, n
+      if (.not. bodies%fixed(i)) call schedule_crossing(self, bodies, flight, i, t)
+    end do
+    if (.not. self%use_pass) return
+    ! The bodies within reach of a contact pass take their first island step now.
+    allocate (seeds(n))
+    n_seeds = 0
+    do i = 1, n
+      if (bodies%fixed(i)) cycle
+      if (has_pass_pair(self, stage, bodies, shapes, flight, i, t)) then
+        n_seeds = n_seeds + 1
+        seeds(n_seeds) = i
+      end if
+    end do
+    if (n_seeds == 0) return
+    ! (queued, not taken here: the outputs at t come first, as in the global loop)
+    slot = self%islands%add(seeds(1:n_seeds), t, 0.0_dp, 0.0_dp)
+    allocate (self%islands%islands(slot)%band_pairs(2, 1))
+    self%islands%islands(slot)%n_band_pairs = 0
+    self%island_of(seeds(1:n_seeds)) = slot
+    call self%island_queue%set(slot, t, bodies%gid(seeds(1)), 0_i8)
+  end subroutine loop_init
+
+  !> The earliest pending event of any kind [s] (far_future if none).
+  pure real(dp) function loop_next_event_time(self) result(t)
+    class(event_loop_t), intent(in) :: self
+    t = min(self%pair_queue%top_time(), self%body_queue%top_time(), self%island_queue%top_time())
+  end function loop_next_event_time
+
+  !> Processes every event before t_stop, and the pair and crossing events at t_stop
+  !> (island steps at t_stop come after the caller's outputs there). t_hard: island steps
+  !> end there from now on (the next checkpoint or the end of the run) [s].
+  subroutine loop_run_until(self, stage, bodies, shapes, flight, t_stop, t_hard, err)
+    class(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    real(dp), intent(in) :: t_stop, t_hard
+    type(error_t), intent(inout) :: err
+    real(dp) :: t_pair, t_body, t_island, t
+    integer :: handle
+    self%t_hard = t_hard
+    do
+      t_pair = self%pair_queue%top_time()
+      t_body = self%body_queue%top_time()
+      t_island = self%island_queue%top_time()
+      if (min(t_pair, t_body) <= t_stop .and. min(t_pair, t_body) <= t_island) then
+        if (t_pair <= t_body) then
+          call self%pair_queue%pop(handle, t)
+          self%time = max(self%time, t)
+          call pair_event(self, stage, bodies, shapes, flight, handle, t, err)
+        else
+          call self%body_queue%pop(handle, t)
+          self%time = max(self%time, t)
+          call crossing_event(self, stage, bodies, shapes, flight, handle, t, err)
+        end if
+      else if (t_island < t_stop) then
+        call self%island_queue%pop(handle, t)
+        self%time = max(self%time, t)
+        call island_end(self, stage, bodies, shapes, flight, handle, t, err)
+      else
+        exit
+      end if
+      if (err%failed()) return
+    end do
+    self%time = t_stop
+  end subroutine loop_run_until
+
+
+  !> Every moving body evaluated at t into bodies (frames, history rows, checkpoints).
+  subroutine loop_synchronize(self, bodies, flight, t)
+    class(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(free_flight_t), intent(inout) :: flight
+    real(dp), intent(in) :: t
+    integer :: i
+    do i = 1, bodies%n_owned + bodies%n_ghost
+      if (bodies%fixed(i) .or. self%state_time(i) == t) cycle
+      call flight%evaluate(bodies, i, t, self%gravity)
+      self%state_time(i) = t
+      self%stats%output_evaluations = self%stats%output_evaluations + 1
+    end do
+  end subroutine loop_synchronize
+
+  !> How many bodies kept the trajectory they had when the loop was built (this run).
+  pure integer function loop_bodies_unchanged(self, bodies) result(count_unchanged)
+    class(event_loop_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer :: i
+    count_unchanged = 0
+    do i = 1, bodies%n_owned
+      if (.not. bodies%fixed(i) .and. self%changes(i) == 0) count_unchanged = count_unchanged + 1
+    end do
+  end function loop_bodies_unchanged
+
+  ! ---------------------------------------------------------------------------------------
+  ! bodies
+
+  !> Body i's state at t in bodies (from its anchor; nothing for static bodies).
+  subroutine sync(self, bodies, flight, i, t)
+    type(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t
+    if (bodies%fixed(i) .or. self%state_time(i) == t) return
+    call flight%evaluate(bodies, i, t, self%gravity)
+    self%state_time(i) = t
+    self%stats%evaluations = self%stats%evaluations + 1
+  end subroutine sync
+
+  !> Body i's trajectory changed at t (its state in bodies is the new one): a new anchor and
+  !> version. Its pairs are the caller's to certify again.
+  subroutine new_trajectory(self, bodies, flight, i, t)
+    type(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(inout) :: bodies
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t
+    self%state_time(i) = t
+    self%version(i) = self%version(i) + 1
+    self%changes(i) = self%changes(i) + 1
+    self%stats%trajectory_changes = self%stats%trajectory_changes + 1
+    if (.not. bodies%fixed(i)) call flight%anchor_at(bodies, i, t)
+  end subroutine new_trajectory
+
+  !> Body i enters the grid with its bounding sphere's box, grown by the margin (moving
+  !> bodies) and half the band, around where it is now.
+  subroutine place(self, bodies, shapes, i, err)
+    type(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    integer, intent(in) :: i
+    type(error_t), intent(inout) :: err
+    real(dp) :: grow
+    grow = shapes%shapes(bodies%shape_id(i))%bounding_radius + 0.5_dp*self%band
+    if (.not. bodies%fixed(i)) grow = grow + self%margin
+    self%region_x(:, i) = bodies%x(:, i)
+    call self%cells%place(i, bodies%x(:, i) - grow, bodies%x(:, i) + grow, err)
+    if (err%failed()) call err%prefix('body '//str(bodies%gid(i))//': ')
+  end subroutine place
+
+  !> When body i (at t) will have used up its margin on its present trajectory.
+  subroutine schedule_crossing(self, bodies, flight, i, t)
+    type(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(free_flight_t), intent(in) :: flight
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t
+    type(closing_bound_t) :: travel
+    real(dp) :: room, dt
+    if (bodies%fixed(i)) then
+      call self%body_queue%remove(i)
+      return
+    end if
+    room = self%margin - norm2(bodies%x(:, i) - self%region_x(:, i))
+    travel%rate = norm2(bodies%v(:, i))
+    travel%acceleration = norm2(flight%acceleration(i, self%gravity))
+    dt = 0.0_dp
+    if (room > 0.0_dp) dt = time_to_close(travel, room)
+    if (t + dt >= far_future) then
+      call self%body_queue%remove(i)
+    else
+      call self%body_queue%set(i, t + dt, bodies%gid(i), 0_i8)
+    end if
+  end subroutine schedule_crossing
+
+  !> Body i has used up its margin: placed again where it is, its new candidate pairs made
+  !> and certified, the pairs whose regions no longer overlap dropped.
+  subroutine crossing_event(self, stage, bodies, shapes, flight, i, t, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    self%stats%crossings = self%stats%crossings + 1
+    call sync(self, bodies, flight, i, t)
+    call replace(self, stage, bodies, shapes, flight, i, t, err)
+    if (err%failed()) return
+    call schedule_crossing(self, bodies, flight, i, t)
+  end subroutine crossing_event
+
+  !> Places body i again (at t) and brings its pairs up to date with its new region.
+  subroutine replace(self, stage, bodies, shapes, flight, i, t, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer :: slot, next_slot, j, k, n_found
+    call place(self, bodies, shapes, i, err)
+    if (err%failed()) return
+    ! pairs whose regions no longer overlap cannot come within the band before one of the
+    ! two is placed again
+    slot = self%pairs%head(i)
+    do while (slot > 0)
+      next_slot = self%pairs%next_of(slot, i)
+      j = self%pairs%partner(slot, i)
+      if (.not. self%cells%overlaps(i, j)) then
+        call self%pair_queue%remove(slot)
+        call self%pairs%remove(slot)
+      end if
+      slot = next_slot
+    end do
+    call self%cells%query(i, self%found, n_found, bodies%n_owned + bodies%n_ghost)
+    do k = 1, n_found
+      j = self%found(k)
+      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      if (self%pairs%find(i, j) > 0) cycle
+      slot = self%pairs%add(i, j, bodies%gid(i), bodies%gid(j))
+      call ensure_pair_marks(self)
+      call certify(self, stage, bodies, shapes, flight, slot, t, err)
+      if (err%failed()) return
+    end do
+  end subroutine replace
+
+  subroutine ensure_pair_marks(self)
+    type(event_loop_t), intent(inout) :: self
+    integer, allocatable :: grown(:)
+    if (size(self%pair_mark) >= self%pairs%n_slots) return
+    allocate (grown(max(2*size(self%pair_mark), self%pairs%n_slots, 64)))
+    grown = 0
+    grown(1:size(self%pair_mark)) = self%pair_mark
+    call move_alloc(grown, self%pair_mark)
+  end subroutine ensure_pair_marks
+
+  integer function next_stamp(self) result(stamp)
+    type(event_loop_t), intent(inout) :: self
+    if (self%stamp == huge(self%stamp)) then
+      self%mark = 0
+      self%pair_mark = 0
+      self%stamp = 0
+    end if
+    self%stamp = self%stamp + 1
+    stamp = self%stamp
+  end function next_stamp
+
+  ! ---------------------------------------------------------------------------------------
+  ! certificates
+
+  !> How far bodies a and b can close on each other over h [m], from their relative motion:
+  !> (|v_a - v_b| + Omega_a R_a + Omega_b R_b) h, and gravity's impulse for the step where
+  !> only one of them moves (the contact pass gives it to every body it holds) g h^2. A
+  !> speculative contact of the pass is active only if its own feature gap above the target
+  !> plus tolerance closes by more than this in the step, so a pair further apart than
+  !> this cannot be held by the pass; bodies falling side by side are not within reach of
+  !> each other however fast they fall.
+  real(dp) function pass_closing(self, shapes, bodies, a, b, h) result(closing)
+    type(event_loop_t), intent(in) :: self
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: a, b
+    real(dp), intent(in) :: h
+    real(dp) :: va(3), vb(3)
+    va = 0.0_dp
+    vb = 0.0_dp
+    if (.not. bodies%fixed(a)) va = bodies%v(:, a)
+    if (.not. bodies%fixed(b)) vb = bodies%v(:, b)
+    closing = (norm2(va - vb) + turning_reach(shapes, bodies, a) + turning_reach(shapes, bodies, b))*h
+    if (bodies%fixed(a) .neqv. bodies%fixed(b)) closing = closing + norm2(self%gravity)*h*h
+  end function pass_closing
+
+  !> A lower bound on the gap of a and b (at their present states) from bounding volumes:
+  !> their bounding spheres, and, against a static body, the moving one's sphere against
+  !> the static one's box. far_time: how long it stays above `above` [s] (translation only:
+  !> the bounding sphere does not turn, and a static box does not move).
+  subroutine far_bound(self, shapes, bodies, flight, a, b, above, lb, far_time)
+    type(event_loop_t), intent(in) :: self
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    type(free_flight_t), intent(in) :: flight
+    integer, intent(in) :: a, b
+    real(dp), intent(in) :: above
+    real(dp), intent(out) :: lb, far_time
+    type(closing_bound_t) :: bound
+    real(dp) :: d(3), dist, n(3), lb_box, v(3), acc(3)
+    integer :: mover, wall
+    associate (sa => shapes%shapes(bodies%shape_id(a)), sb => shapes%shapes(bodies%shape_id(b)))
+      d = bodies%x(:, b) - bodies%x(:, a)
+      dist = norm2(d)
+      lb = dist - sa%bounding_radius - sb%bounding_radius
+      far_time = 0.0_dp
+      if (lb > above .and. dist > 0.0_dp) then
+        ! along the line of centres: the centre distance is at least its projection on it
+        n = d/dist
+        bound%rate = dot_product(n, velocity(a) - velocity(b))
+        bound%acceleration = dot_product(n, accel(a) - accel(b))
+        far_time = time_to_close(bound, lb - above)
+      end if
+      if (bodies%fixed(a) .neqv. bodies%fixed(b)) then
+        if (bodies%fixed(a)) then
+          wall = a
+          mover = b
+        else
+          wall = b
+          mover = a
+        end if
+        associate (sw => shapes%shapes(bodies%shape_id(wall)), sm => shapes%shapes(bodies%shape_id(mover)))
+          lb_box = point_box_gap(bodies%x(:, mover), bodies%x(:, wall), bodies%q(:, wall), sw%aabb_lower, &
+                                 sw%aabb_upper) - sm%bounding_radius
+        end associate
+        if (lb_box > lb) lb = lb_box
+        if (lb_box > above) then
+          ! the distance from a point to a box is 1-Lipschitz in the point
+          v = velocity(mover)
+          acc = accel(mover)
+          bound%rate = norm2(v)
+          bound%acceleration = norm2(acc)
+          far_time = max(far_time, time_to_close(bound, lb_box - above))
+        end if
+      end if
+    end associate
+  contains
+    function velocity(k) result(vk)
+      integer, intent(in) :: k
+      real(dp) :: vk(3)
+      vk = 0.0_dp
+      if (.not. bodies%fixed(k)) vk = bodies%v(:, k)
+    end function velocity
+    function accel(k) result(ak)
+      integer, intent(in) :: k
+      real(dp) :: ak(3)
+      ak = 0.0_dp
+      if (.not. bodies%fixed(k)) ak = flight%acceleration(k, self%gravity)
+    end function accel
+  end subroutine far_bound
+
+  !> The certificate of pair slot from time t (both bodies evaluated there): when it must
+  !> be looked at again, and what happens then. Far pairs: from bounding volumes, until they
+  !> could come within `near`. Free inelastic pairs (with contact passes): until they could
+  !> come within reach of the contact pass (band + one step's travel), when they take an
+  !> island step (ACTION_ENTER). Otherwise the pair's time of contact by conservative
+  !> advancement (collision_stage%advance_candidate, as the global loop advances it) up to
+  !> the time either trajectory ends: an impact, or a time to look again.
+  recursive subroutine certify(self, stage, bodies, shapes, flight, slot, t, err, enter_now, known)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: slot
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    logical, intent(out), optional :: enter_now   !< the pair is within reach of a pass now
+    !> the store's gap and normal are those at t (an island step measured them): no query
+    logical, intent(in), optional :: known
+    type(advancement_result_t) :: res
+    real(dp) :: horizon, lb, dt, gap, normal(3), d_enter, due
+    integer :: a, b
+    type(closing_bound_t) :: bound
+    logical :: use_known
+    if (present(enter_now)) enter_now = .false.
+    a = self%pairs%a(slot)
+    b = self%pairs%b(slot)
+    self%stats%certificates = self%stats%certificates + 1
+    self%pairs%stamp(:, slot) = [self%version(a), self%version(b)]
+    self%pairs%t_query(slot) = t
+    if (bodies%fixed(a) .and. bodies%fixed(b)) then
+      call set_action(self, bodies, slot, ACTION_NONE, far_future)
+      return
+    end if
+    call sync(self, bodies, flight, a, t)
+    call sync(self, bodies, flight, b, t)
+    horizon = min(self%expiry(a), self%expiry(b))
+    call far_bound(self, shapes, bodies, flight, a, b, 0.5_dp*self%near, lb, dt)
+    use_known = .false.
+    if (present(known)) use_known = known .and. .not. self%pairs%far(slot)
+    if (lb > self%near .and. .not. use_known) then
+      self%stats%far_certificates = self%stats%far_certificates + 1
+      self%pairs%far(slot) = .true.
+      self%pairs%gap(slot) = lb
+      ! (certified up to where a trajectory ends: the island step there certifies it again)
+      if (t + dt >= horizon) then
+        call set_action(self, bodies, slot, ACTION_NONE, far_future)
+      else
+        call set_action(self, bodies, slot, ACTION_QUERY, t + dt)
+      end if
+      return
+    end if
+    if (use_known) then
+      gap = self%pairs%gap(slot)
+      normal = self%pairs%normal(:, slot)
+    else
+      call pair_gap(shapes, bodies, a, b, bodies%x(:, a), bodies%q(:, a), bodies%x(:, b), bodies%q(:, b), gap, normal)
+      stage%stats%pair_tests = stage%stats%pair_tests + 1
+      stage%stats%min_separation = min(stage%stats%min_separation, gap)
+    end if
+    self%pairs%far(slot) = .false.
+    self%pairs%gap(slot) = gap
+    self%pairs%normal(:, slot) = normal
+    ! a free inelastic pair approaching the reach of a contact pass: an island step there
+    if (self%use_pass .and. self%island_of(a) == 0 .and. self%island_of(b) == 0 .and. .not. self%pairs%in_pass(slot)) then
+      if (stage%materials%pair_restitution(bodies%group_id(a), bodies%group_id(b)) <= 0.0_dp) then
+        ! (two steps ahead: a pair that waits for an island's next step is still within reach then)
+        d_enter = stage%target + stage%tolerance + pass_closing(self, shapes, bodies, a, b, 2.0_dp*self%dt_max)
+        if (gap <= d_enter) then
+          if (t >= self%t_hard) then
+            ! at the next checkpoint or the end: the rebuild there takes it up
+            call set_action(self, bodies, slot, ACTION_NONE, far_future)
+            return
+          end if
+          if (present(enter_now)) enter_now = .true.
+          call set_action(self, bodies, slot, ACTION_ENTER, t)
+          return
+        end if
+        ! Due when the bound may bring it to the reach of one step, not two: the pair is
+        ! then certainly within d_enter or has not approached as fast as the bound allows,
+        ! and every certificate moves time on by a finite part of the slack (aiming at
+        ! d_enter itself, a loose bound would approach it in ever smaller steps).
+        bound = enter_bound(normal)
+        due = t + time_to_close(bound, gap - (stage%target + stage%tolerance + &
+                                              pass_closing(self, shapes, bodies, a, b, self%dt_max)))
+        if (due < horizon) then
+          call set_action(self, bodies, slot, ACTION_ENTER, due)
+        else
+          call set_action(self, bodies, slot, ACTION_NONE, far_future)
+        end if
+        return
+      end if
+    end if
+    ! one pair in the stage's table, as the global loop advances it
+    stage%pairs(:, 1) = [a, b]
+    stage%pair_gap0(1) = gap
+    stage%pair_normal(:, 1) = normal
+    stage%pair_far(1) = .false.
+    stage%pair_in_pass(1) = self%pairs%in_pass(slot)
+    ! (advanced at most lookahead_steps dt_max ahead: a turning pair's bound always closes,
+    ! and poses far in the future are neither needed nor accurate)
+    horizon = min(horizon, t + lookahead_steps*self%dt_max)
+    call stage%advance_candidate(bodies, shapes, flight, self%gravity, self%config, t, 1, horizon - t, &
+                                 queries_per_certificate, res)
+    if (res%capped) stage%stats%capped = stage%stats%capped + 1
+    if (res%contact .or. (res%capped .and. res%time == 0.0_dp)) then
+      call set_action(self, bodies, slot, ACTION_IMPACT, t + res%time)
+    else if (t + res%time >= min(self%expiry(a), self%expiry(b))) then
+      ! certified up to where a trajectory ends (the island step there certifies it again)
+      call set_action(self, bodies, slot, ACTION_NONE, far_future)
+    else
+      call set_action(self, bodies, slot, ACTION_QUERY, t + res%time)
+    end if
+  contains
+    !> How fast the pair can close towards the pass's reach (the first-order bound).
+    function enter_bound(nrm) result(cb)
+      real(dp), intent(in) :: nrm(3)
+      type(closing_bound_t) :: cb
+      real(dp) :: va(3), vb(3), aa(3), ab(3), turn
+      va = 0.0_dp; vb = 0.0_dp; aa = 0.0_dp; ab = 0.0_dp
+      if (.not. bodies%fixed(a)) then
+        va = bodies%v(:, a); aa = flight%acceleration(a, self%gravity)
+      end if
+      if (.not. bodies%fixed(b)) then
+        vb = bodies%v(:, b); ab = flight%acceleration(b, self%gravity)
+      end if
+      turn = turning_reach(shapes, bodies, a) + turning_reach(shapes, bodies, b)
+      if (shapes%shapes(bodies%shape_id(a))%convex .and. shapes%shapes(bodies%shape_id(b))%convex) then
+        cb%rate = dot_product(nrm, va - vb) + turn
+        cb%acceleration = dot_product(nrm, aa - ab)
+      else
+        cb%rate = norm2(va - vb) + turn
+        cb%acceleration = norm2(aa - ab)
+      end if
+    end function enter_bound
+  end subroutine certify
+
+  subroutine set_action(self, bodies, slot, action, due)
+    type(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: slot, action
+    real(dp), intent(in) :: due
+    self%pairs%action(slot) = action
+    self%pairs%t_due(slot) = due
+    if (action == ACTION_NONE) then
+      call self%pair_queue%remove(slot)
+    else
+      call self%pair_queue%set(slot, due, bodies%gid(self%pairs%a(slot)), bodies%gid(self%pairs%b(slot)))
+    end if
+  end subroutine set_action
+
+  !> Every pair of the bodies listed certified again at t (their trajectories changed).
+  !> skip, when present: pairs whose pair_mark is this stamp are left out (just certified).
+  subroutine certify_pairs_of(self, stage, bodies, shapes, flight, list, t, err, skip)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: list(:)
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer, intent(in), optional :: skip
+    integer :: m, slot, stamp, skip_stamp
+    integer, allocatable :: slots(:)
+    integer :: n_slots
+    call ensure_pair_marks(self)
+    skip_stamp = -1
+    if (present(skip)) skip_stamp = skip
+    stamp = next_stamp(self)
+    allocate (slots(16))
+    n_slots = 0
+    do m = 1, size(list)
+      slot = self%pairs%head(list(m))
+      do while (slot > 0)
+        if (self%pair_mark(slot) /= stamp .and. self%pair_mark(slot) /= skip_stamp) then
+          self%pair_mark(slot) = stamp
+          call push(slots, n_slots, slot)
+        end if
+        slot = self%pairs%next_of(slot, list(m))
+      end do
+    end do
+    call sort_slots(self, bodies, slots, n_slots)
+    do m = 1, n_slots
+      call certify(self, stage, bodies, shapes, flight, slots(m), t, err)
+      if (err%failed()) return
+    end do
+  end subroutine certify_pairs_of
+
+  !> Pair slots in increasing (gid a, gid b): the order of work never depends on storage.
+  subroutine sort_slots(self, bodies, slots, n)
+    type(event_loop_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(inout) :: slots(:)
+    integer, intent(in) :: n
+    integer(i8), allocatable :: keys(:, :)
+    integer, allocatable :: order(:)
+    integer :: k
+    if (n < 2) return
+    allocate (keys(2, n))
+    do k = 1, n
+      keys(:, k) = [bodies%gid(self%pairs%a(slots(k))), bodies%gid(self%pairs%b(slots(k)))]
+    end do
+    call sort_index_keys(keys, order)
+    slots(1:n) = slots(order)
+  end subroutine sort_slots
+
+  ! ---------------------------------------------------------------------------------------
+  ! events
+
+  subroutine pair_event(self, stage, bodies, shapes, flight, slot, t, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: slot
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    logical :: enter_now
+    integer :: seeds(2), n_seeds
+    ! (a certificate is certified again whenever a version changes, so a popped one is
+    ! current; the stamps say so, and a stale one is simply certified again)
+    if (.not. self%pairs%current(slot, self%version)) then
+      call certify(self, stage, bodies, shapes, flight, slot, t, err)
+      return
+    end if
+    select case (self%pairs%action(slot))
+    case (ACTION_IMPACT)
+      call impact(self, stage, bodies, shapes, flight, slot, t, err)
+    case (ACTION_ENTER)
+      call certify(self, stage, bodies, shapes, flight, slot, t, err, enter_now)
+      if (err%failed() .or. .not. enter_now) return
+      self%stats%enters = self%stats%enters + 1
+      n_seeds = 0
+      if (.not. bodies%fixed(self%pairs%a(slot))) then
+        n_seeds = n_seeds + 1
+        seeds(n_seeds) = self%pairs%a(slot)
+      end if
+      if (.not. bodies%fixed(self%pairs%b(slot))) then
+        n_seeds = n_seeds + 1
+        seeds(n_seeds) = self%pairs%b(slot)
+      end if
+      call island_step(self, stage, bodies, shapes, flight, seeds(1:n_seeds), t, .true., err)
+    case default
+      call certify(self, stage, bodies, shapes, flight, slot, t, err)
+    end select
+  end subroutine pair_event
+
+  !> Pair slot reaches contact at t: its impulse group (the band contacts connected to it
+  !> through moving bodies, sleeping islands it reaches woken), the steps of the islands it
+  !> touches cut at t, the impulses (collision_stage%resolve, as the global loop solves an
+  !> event), and the new trajectories of the bodies that changed; with contact passes, the
+  !> group and the cut islands then take an island step from t.
+  subroutine impact(self, stage, bodies, shapes, flight, slot, t, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: slot
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer, allocatable :: group(:), contact_slots(:), reseed(:), changed(:)
+    integer :: n_group, n_contact, n_reseed, n_changed, k, m
+    logical :: any_change
+    self%stats%impacts = self%stats%impacts + 1
+    call impulse_group(self, stage, bodies, shapes, flight, slot, t, group, n_group, contact_slots, n_contact, err)
+    if (err%failed()) return
+    ! islands touched: their steps end here, what their passes gave for the rest taken back
+    allocate (reseed(16))
+    n_reseed = 0
+    do k = 1, n_group
+      if (self%island_of(group(k)) > 0) call cut_island(self, stage, bodies, flight, self%island_of(group(k)), t, &
+                                                        reseed, n_reseed)
+    end do
+    ! the impulses, on a table of the group's contact pairs
+    call load_table(self, stage, bodies, contact_slots(1:n_contact))
+    stage%n_events = 1
+    if (allocated(stage%event_pairs)) deallocate (stage%event_pairs)
+    allocate (stage%event_pairs(2, 1))
+    stage%event_pairs(:, 1) = [self%pairs%a(slot), self%pairs%b(slot)]
+    call stage%resolve(bodies, shapes, flight, 1.0_dp, 1.0_dp, err, time=t)
+    if (err%failed()) return
+    stage%n_events = 0
+    ! new trajectories: every body released by the impulses or by a cut pass
+    allocate (changed(n_group + n_reseed))
+    n_changed = 0
+    any_change = .false.
+    do m = 1, n_group + n_reseed
+      if (m <= n_group) then
+        k = group(m)
+      else
+        k = reseed(m - n_group)
+      end if
+      if (bodies%fixed(k) .or. flight%is_anchored(k)) cycle
+      if (m <= n_group) any_change = .true.
+      call new_trajectory(self, bodies, flight, k, t)
+      n_changed = n_changed + 1
+      changed(n_changed) = k
+    end do
+    if (any_change) then
+      self%zero_impacts = 0
+    else
+      self%zero_impacts = self%zero_impacts + 1
+      if (self%zero_impacts > 1000) then
+        call err%set(ERR_NUMERIC, 'collision loop stalled: 1000 impacts in a row changed nothing, the last between '// &
+                     'bodies '//str(bodies%gid(self%pairs%a(slot)))//' and '//str(bodies%gid(self%pairs%b(slot)))// &
+                     ' at t = '//str(t)//' s')
+        return
+      end if
+    end if
+    if (self%use_pass) then
+      call island_step(self, stage, bodies, shapes, flight, [group(1:n_group), reseed(1:n_reseed)], t, .true., err)
+    else
+      call settle_changed(self, stage, bodies, shapes, flight, changed(1:n_changed), t, err)
+      ! the pair itself, if nothing changed (it is certified from here, not found again)
+      if (.not. any_change) call certify(self, stage, bodies, shapes, flight, slot, t, err)
+    end if
+  end subroutine impact
+
+  !> The impulse group of pair slot at t: the moving bodies connected to it by pairs within
+  !> the contact band (group(1:n_group), sleeping islands reached woken and included) and
+  !> those pairs (contact_slots(1:n_contact), by global ids).
+  subroutine impulse_group(self, stage, bodies, shapes, flight, slot, t, group, n_group, contact_slots, n_contact, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: slot
+    real(dp), intent(in) :: t
+    integer, allocatable, intent(out) :: group(:), contact_slots(:)
+    integer, intent(out) :: n_group, n_contact
+    type(error_t), intent(inout) :: err
+    integer, allocatable :: woken(:)
+    integer :: stamp, k, q, m, i, n_woken, w
+    real(dp) :: gap, normal(3), lb, dt
+    allocate (group(16), contact_slots(16))
+    n_group = 0
+    n_contact = 0
+    call ensure_pair_marks(self)
+    stamp = next_stamp(self)
+    call join(self%pairs%a(slot))
+    call join(self%pairs%b(slot))
+    if (bodies%fixed(self%pairs%a(slot)) .and. bodies%fixed(self%pairs%b(slot))) return
+    k = 0
+    do while (k < n_group)
+      k = k + 1
+      i = group(k)
+      call sync(self, bodies, flight, i, t)
+      q = self%pairs%head(i)
+      do while (q > 0)
+        m = self%pairs%partner(q, i)
+        if (self%pair_mark(q) /= stamp) then
+          self%pair_mark(q) = stamp
+          call sync(self, bodies, flight, m, t)
+          call far_bound(self, shapes, bodies, flight, i, m, self%band, lb, dt)
+          if (lb <= self%band .and. .not. (bodies%fixed(i) .and. bodies%fixed(m))) then
+            call pair_gap(shapes, bodies, self%pairs%a(q), self%pairs%b(q), bodies%x(:, self%pairs%a(q)), &
+                          bodies%q(:, self%pairs%a(q)), bodies%x(:, self%pairs%b(q)), bodies%q(:, self%pairs%b(q)), &
+                          gap, normal)
+            stage%stats%pair_tests = stage%stats%pair_tests + 1
+            if (gap <= self%band) then
+              call push(contact_slots, n_contact, q)
+              if (bodies%asleep(m) .and. .not. bodies%fixed(i)) then
+                ! a moving body reaches a sleeping island: it wakes, whole, and joins
+                n_woken = 0
+                call stage%sleep%wake_island_of(bodies, flight, m, woken, n_woken)
+                do w = 1, n_woken
+                  call new_trajectory(self, bodies, flight, woken(w), t)
+                  call schedule_crossing(self, bodies, flight, woken(w), t)
+                  call join(woken(w))
+                end do
+              end if
+              call join(m)
+            end if
+          end if
+        end if
+        q = self%pairs%next_of(q, i)
+      end do
+    end do
+    call sort_slots(self, bodies, contact_slots, n_contact)
+    if (err%failed()) return
+  contains
+    subroutine join(body)
+      integer, intent(in) :: body
+      if (bodies%fixed(body)) return
+      if (self%mark(body) == stamp) return
+      self%mark(body) = stamp
+      call push(group, n_group, body)
+    end subroutine join
+  end subroutine impulse_group
+
+  !> Island slot's step ends at t before its time (an impact on it, or a merge): every
+  !> member evaluated at t, the pass's part for the time not taken returned, the members
+  !> appended to list(n_list+1:).
+  subroutine cut_island(self, stage, bodies, flight, island, t, list, n_list)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: island
+    real(dp), intent(in) :: t
+    integer, allocatable, intent(inout) :: list(:)
+    integer, intent(inout) :: n_list
+    integer, allocatable :: members(:)
+    integer :: k, id
+    ! (island may be an element of island_of, which this changes: copied first)
+    id = island
+    associate (isl => self%islands%islands(id))
+      members = isl%members(1:isl%n)
+      self%stats%island_cuts = self%stats%island_cuts + 1
+      do k = 1, size(members)
+        call sync(self, bodies, flight, members(k), t)
+        self%island_of(members(k)) = 0
+        self%expiry(members(k)) = far_future
+        call push(list, n_list, members(k))
+      end do
+      call stage%return_unused_pass(bodies, flight, t - isl%t_start, members, isl%pass_step)
+    end associate
+    call self%island_queue%remove(id)
+    call self%islands%remove(id)
+  end subroutine cut_island
+
+  !> The island's step ends at t as planned: its members finish the step, and those still
+  !> awake take the next one.
+  subroutine island_end(self, stage, bodies, shapes, flight, island, t, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: island
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer, allocatable :: awake(:)
+    integer :: n_awake
+    allocate (awake(16))
+    n_awake = 0
+    call finish_island(self, stage, bodies, shapes, flight, island, t, awake, n_awake, err)
+    if (err%failed()) return
+    if (n_awake > 0) call island_step(self, stage, bodies, shapes, flight, awake(1:n_awake), t, .false., err)
+  end subroutine island_end
+
+  !> Island slot's step ends at t, its planned end: members evaluated there, the pass's
+  !> unused part (a step cut by the grid) returned, sleeping; the members still awake are
+  !> appended to list(n_list+1:).
+  subroutine finish_island(self, stage, bodies, shapes, flight, island, t, list, n_list, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: island
+    real(dp), intent(in) :: t
+    integer, allocatable, intent(inout) :: list(:)
+    integer, intent(inout) :: n_list
+    type(error_t), intent(inout) :: err
+    integer, allocatable :: members(:), band_pairs(:, :), asleep_now(:)
+    integer :: k, n_asleep_now, id
+    real(dp) :: step, pass_step
+    id = island     ! (island may be an element of island_of, which this changes)
+    associate (isl => self%islands%islands(id))
+      members = isl%members(1:isl%n)
+      step = isl%step
+      pass_step = isl%pass_step
+      band_pairs = isl%band_pairs(:, 1:isl%n_band_pairs)
+    end associate
+    call self%island_queue%remove(id)
+    call self%islands%remove(id)
+    do k = 1, size(members)
+      call sync(self, bodies, flight, members(k), t)
+      self%island_of(members(k)) = 0
+      self%expiry(members(k)) = far_future
+    end do
+    call stage%return_unused_pass(bodies, flight, step, members, pass_step)
+    call stage%sleep%update(bodies, shapes, flight, step, band_pairs, size(band_pairs, 2), members, asleep_now, &
+                            n_asleep_now)
+    if (n_asleep_now > 0) then
+      ! asleep: static until touched
+      do k = 1, n_asleep_now
+        call new_trajectory(self, bodies, flight, asleep_now(k), t)
+        call self%body_queue%remove(asleep_now(k))
+      end do
+      call certify_pairs_of(self, stage, bodies, shapes, flight, asleep_now(1:n_asleep_now), t, err)
+      if (err%failed()) return
+    end if
+    do k = 1, size(members)
+      if (.not. bodies%fixed(members(k))) call push(list, n_list, members(k))
+    end do
+  end subroutine finish_island
+
+  !> One island step from T: the seeds, and every body within reach of a contact pass of
+  !> theirs (transitively: the closure, bodies of other islands cutting those islands'
+  !> steps, sleeping ones woken), step together over h (dt_max, the next checkpoint or the
+  !> end, and one grid box of travel): distance correction, the contact pass, then islands
+  !> of the bodies joined by pass pairs, each with its clock, and every pair of theirs
+  !> certified over the step. keep_seeds: the seeds stay members for this step even with
+  !> nothing within reach (they came here because a pair of theirs is about to be).
+  !> no_wait, when present and true: islands reached are cut, never waited for.
+  recursive subroutine island_step(self, stage, bodies, shapes, flight, seeds, T, keep_seeds, err, no_wait)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: seeds(:)
+    real(dp), intent(in) :: T
+    logical, intent(in) :: keep_seeds
+    type(error_t), intent(inout) :: err
+    logical, intent(in), optional :: no_wait
+    integer, allocatable :: members(:), table(:), woken(:), pass_pairs(:, :), label(:), kept(:), changed(:), &
+                            in_island(:), first_of(:), by_label(:), fill(:), slot_of(:)
+    logical, allocatable :: relevant(:)
+    integer :: n_members, n_table, k, q, m, i, stamp, w, n_woken, n_pass, n_components, c, island, n_kept, &
+               n_changed
+    real(dp) :: h0, h, h2, lb, dt, gap, normal(3), reach
+    logical :: low, can_wait, several, wait
+    integer :: wait_for
+    real(dp) :: t_wait
+    self%stats%island_steps = self%stats%island_steps + 1
+    h0 = min(self%dt_max, self%t_hard - T)
+    if (h0 <= 0.0_dp) then
+      ! at the next checkpoint or the end: the rebuild there steps them (certified till then)
+      call settle_changed(self, stage, bodies, shapes, flight, pack(seeds, .not. bodies%fixed(seeds)), T, err)
+      return
+    end if
+    allocate (members(16), table(16))
+    n_members = 0
+    n_table = 0
+    ! Seeds none of which a pass holds (free bodies about to land) may wait for an island
+    ! they reach instead of cutting its step.
+    can_wait = .true.
+    if (present(no_wait)) can_wait = .not. no_wait
+    several = .false.
+    do k = 1, size(seeds)
+      if (.not. bodies%fixed(seeds(k))) then
+        if (flight%loaded(seeds(k))) can_wait = .false.
+      end if
+    end do
+    wait_for = 0
+    ! seeds near the end of their margins are placed again first, so their pairs are complete
+    ! (members that join later are placed again after the step: placing drops pairs, which
+    ! must not happen while the table holds them)
+    do k = 1, size(seeds)
+      if (bodies%fixed(seeds(k))) cycle
+      call sync(self, bodies, flight, seeds(k), T)
+      if (norm2(bodies%x(:, seeds(k)) - self%region_x(:, seeds(k))) > 0.5_dp*self%margin) then
+        call replace(self, stage, bodies, shapes, flight, seeds(k), T, err)
+        if (err%failed()) return
+      end if
+    end do
+    call ensure_pair_marks(self)
+    stamp = next_stamp(self)
+    do k = 1, size(seeds)
+      call add_member(seeds(k))
+      if (err%failed()) return
+    end do
+    h = stage%limit_step(bodies, flight, self%gravity, h0, members(1:n_members))
+    ! the closure: partners within reach of a pass of a member join
+    allocate (relevant(16))
+    k = 0
+    do while (k < n_members)
+      k = k + 1
+      i = members(k)
+      q = self%pairs%head(i)
+      do while (q > 0)
+        m = self%pairs%partner(q, i)
+        if (self%pair_mark(q) /= stamp) then
+          self%pair_mark(q) = stamp
+          call sync(self, bodies, flight, m, T)
+          call push(table, n_table, q)
+          if (size(relevant) < n_table) call grow_logical(relevant)
+          relevant(n_table) = .false.
+          ! gap at T: closest points where the bounding volumes cannot settle it
+          reach = pass_closing(self, shapes, bodies, i, m, h)
+          call far_bound(self, shapes, bodies, flight, i, m, self%band + reach, lb, dt)
+          self%pairs%t_query(q) = T
+          if (lb > self%band + reach .or. (bodies%fixed(i) .and. bodies%fixed(m))) then
+            self%pairs%far(q) = .true.
+            self%pairs%gap(q) = lb
+          else
+            call pair_gap(shapes, bodies, self%pairs%a(q), self%pairs%b(q), bodies%x(:, self%pairs%a(q)), &
+                          bodies%q(:, self%pairs%a(q)), bodies%x(:, self%pairs%b(q)), bodies%q(:, self%pairs%b(q)), &
+                          gap, normal)
+            stage%stats%pair_tests = stage%stats%pair_tests + 1
+            stage%stats%min_separation = min(stage%stats%min_separation, gap)
+            self%pairs%far(q) = .false.
+            self%pairs%gap(q) = gap
+            self%pairs%normal(:, q) = normal
+            low = gap < 0.75_dp*stage%target
+            if (gap <= self%band .or. low) then
+              relevant(n_table) = .true.
+            else if (stage%materials%pair_restitution(bodies%group_id(i), bodies%group_id(m)) <= 0.0_dp) then
+              relevant(n_table) = gap - (stage%target + stage%tolerance) <= reach
+            end if
+            ! what the pass may not hold it does not see (far), so its bodies stay apart from it
+            if (.not. relevant(n_table)) self%pairs%far(q) = .true.
+            if (relevant(n_table)) then
+              if (bodies%asleep(m) .and. .not. bodies%fixed(i) .and. reaches(i, gap, normal)) then
+                n_woken = 0
+                call stage%sleep%wake_island_of(bodies, flight, m, woken, n_woken)
+                do w = 1, n_woken
+                  call new_trajectory(self, bodies, flight, woken(w), T)
+                  call schedule_crossing(self, bodies, flight, woken(w), T)
+                  call add_member(woken(w))
+                end do
+              end if
+              if (.not. bodies%fixed(m)) then
+                call add_member(m)
+                if (err%failed()) return
+                h = stage%limit_step(bodies, flight, self%gravity, h, [m])
+              end if
+            end if
+          end if
+        end if
+        q = self%pairs%next_of(q, i)
+      end do
+    end do
+    if (wait_for > 0) then
+      ! Free bodies that reached an island wait for its next step if nothing of theirs can
+      ! touch before it (checked on every pair measured above); otherwise the islands
+      ! reached are cut after all, and this step taken with them.
+      wait = .not. several
+      t_wait = self%islands%islands(wait_for)%t_start + self%islands%islands(wait_for)%step - T
+      do k = 1, n_table
+        if (.not. wait) exit
+        q = table(k)
+        if (self%pairs%gap(q) - (stage%target + stage%tolerance) <= &
+            pass_closing(self, shapes, bodies, self%pairs%a(q), self%pairs%b(q), t_wait)) wait = .false.
+      end do
+      if (wait) then
+        call join_island(self, stage, bodies, shapes, flight, wait_for, members(1:n_members), T, err)
+      else
+        call island_step(self, stage, bodies, shapes, flight, seeds, T, keep_seeds, err, no_wait=.true.)
+      end if
+      return
+    end if
+    self%stats%body_steps = self%stats%body_steps + n_members
+    ! the table: every pair of a member, by global ids; the pass's travel bounds over h
+    call sort_table_impl(self, bodies, table, relevant, n_table)
+    call stage%reserve_table(n_table, bodies%n_owned + bodies%n_ghost)
+    call load_table(self, stage, bodies, table(1:n_table))
+    stage%n_pairs = n_table
+    do k = 1, n_table
+      do c = 1, 2
+        i = stage%pairs(c, k)
+        stage%turn(i) = turning_reach(shapes, bodies, i)*h
+        stage%grid_margin(i) = 0.0_dp
+        if (.not. bodies%fixed(i)) stage%grid_margin(i) = norm2(bodies%v(:, i))*h + &
+                                                          norm2(flight%acceleration(i, self%gravity))*h*h
+      end do
+    end do
+    call stage%correct_distances(bodies, shapes, flight)
+    ! warm starts: the forces of the members' previous steps, whichever islands solved them
+    stage%resting%warm_now = T
+    stage%resting%warm_since = T - 1.01_dp*self%dt_max
+    call stage%contact_pass(bodies, shapes, flight, h, self%gravity, err, members=members(1:n_members))
+    if (err%failed()) return
+    h2 = stage%limit_step(bodies, flight, self%gravity, h, members(1:n_members))
+    ! what the correction and the pass found goes back to the store
+    do k = 1, n_table
+      q = table(k)
+      self%pairs%in_pass(q) = stage%pair_in_pass(k)
+      self%pairs%far(q) = stage%pair_far(k)
+      self%pairs%gap(q) = stage%pair_gap0(k)
+      self%pairs%normal(:, q) = stage%pair_normal(:, k)
+    end do
+    ! islands: the members joined by pass pairs (members with none leave, unless kept)
+    allocate (pass_pairs(2, n_table))
+    n_pass = 0
+    do k = 1, n_table
+      if (.not. relevant(k)) cycle
+      n_pass = n_pass + 1
+      pass_pairs(:, n_pass) = stage%pairs(:, k)
+    end do
+    ! kept: the members in a pass pair, and the seeds if asked
+    stamp = next_stamp(self)
+    do k = 1, n_pass
+      self%mark(pass_pairs(1, k)) = stamp
+      self%mark(pass_pairs(2, k)) = stamp
+    end do
+    if (keep_seeds) then
+      do k = 1, size(seeds)
+        self%mark(seeds(k)) = stamp
+      end do
+    end if
+    allocate (kept(n_members + 2*n_table))
+    n_kept = 0
+    do k = 1, n_members
+      i = members(k)
+      if (bodies%fixed(i) .or. self%mark(i) /= stamp) cycle
+      n_kept = n_kept + 1
+      kept(n_kept) = i
+    end do
+    ! (and a free partner the pass held after all, so that its load ends with a step: the
+    ! pass sees only the pairs the closure found within reach, whose bodies are members, so
+    ! this is a guard)
+    do k = 1, n_table
+      do c = 1, 2
+        i = stage%pairs(c, k)
+        if (bodies%fixed(i) .or. self%mark(i) == stamp) cycle
+        if (self%island_of(i) /= 0 .or. flight%is_anchored(i) .or. .not. flight%loaded(i)) cycle
+        self%mark(i) = stamp
+        n_kept = n_kept + 1
+        kept(n_kept) = i
+      end do
+    end do
+    ! new trajectories: whatever the correction or the pass changed, and the members that
+    ! leave (their loads were cleared by the pass)
+    allocate (changed(n_members + 2*n_table))
+    n_changed = 0
+    stamp = next_stamp(self)
+    do k = 1, n_table
+      do c = 1, 2
+        i = stage%pairs(c, k)
+        if (bodies%fixed(i) .or. self%mark(i) == stamp) cycle
+        self%mark(i) = stamp
+        if (flight%is_anchored(i)) cycle
+        call new_trajectory(self, bodies, flight, i, T)
+        n_changed = n_changed + 1
+        changed(n_changed) = i
+      end do
+    end do
+    do k = 1, n_members
+      i = members(k)
+      if (bodies%fixed(i) .or. self%mark(i) == stamp) cycle
+      self%mark(i) = stamp
+      if (flight%is_anchored(i)) cycle
+      call new_trajectory(self, bodies, flight, i, T)
+      n_changed = n_changed + 1
+      changed(n_changed) = i
+    end do
+    if (n_kept > 0) then
+      call body_islands(kept, n_kept, pass_pairs, n_pass, label, n_components)
+      ! members by component (a counting sort: stable, so each keeps the members' order)
+      allocate (first_of(n_components + 1), by_label(n_kept), slot_of(n_components))
+      first_of = 0
+      do k = 1, n_kept
+        first_of(label(k) + 1) = first_of(label(k) + 1) + 1
+      end do
+      first_of(1) = 1
+      do c = 1, n_components
+        first_of(c + 1) = first_of(c + 1) + first_of(c)
+      end do
+      fill = first_of(1:n_components)
+      do k = 1, n_kept
+        by_label(fill(label(k))) = kept(k)
+        fill(label(k)) = fill(label(k)) + 1
+      end do
+      do c = 1, n_components
+        in_island = by_label(first_of(c):first_of(c + 1) - 1)
+        island = self%islands%add(in_island, T, h2, h)
+        slot_of(c) = island
+        do k = 1, size(in_island)
+          self%island_of(in_island(k)) = island
+          self%expiry(in_island(k)) = T + h2
+        end do
+        call self%island_queue%set(island, T + h2, bodies%gid(in_island(1)), 0_i8)
+      end do
+      call keep_band_pairs(self, stage, bodies, slot_of)
+    end if
+    ! every pair of a member (its gap at T measured above), and of any body whose trajectory
+    ! changed, certified from T
+    stamp = next_stamp(self)
+    do k = 1, n_table
+      self%pair_mark(table(k)) = stamp
+      call certify(self, stage, bodies, shapes, flight, table(k), T, err, known=.true.)
+      if (err%failed()) return
+    end do
+    call certify_pairs_of(self, stage, bodies, shapes, flight, changed(1:n_changed), T, err, skip=stamp)
+    if (err%failed()) return
+    ! crossings on the new trajectories (members changed by an impact before this step too);
+    ! members near the end of their margins placed again now
+    do k = 1, n_members
+      i = members(k)
+      if (bodies%fixed(i)) cycle
+      if (norm2(bodies%x(:, i) - self%region_x(:, i)) > 0.5_dp*self%margin) then
+        call replace(self, stage, bodies, shapes, flight, i, T, err)
+        if (err%failed()) return
+      end if
+      call schedule_crossing(self, bodies, flight, i, T)
+    end do
+    do k = 1, n_changed
+      call schedule_crossing(self, bodies, flight, changed(k), T)
+    end do
+  contains
+    !> Does moving body k reach the sleeping partner of pair q within the step (as the global loop's pass
+    !> decides: touching, gap within target + tolerance, or closing on it faster than the
+    !> gap allows)? Otherwise the partner stays asleep and supports k like a static body.
+    logical function reaches(k, g, nrm)
+      integer, intent(in) :: k
+      real(dp), intent(in) :: g, nrm(3)
+      real(dp) :: closing, toward(3)
+      toward = nrm
+      if (self%pairs%a(q) /= k) toward = -nrm     ! nrm points from a to b: towards j from k
+      closing = max(0.0_dp, dot_product(toward, bodies%v(:, k)))*h + &
+                max(0.0_dp, dot_product(toward, flight%acceleration(k, self%gravity)))*h*h + &
+                turning_reach(shapes, bodies, k)*h
+      reaches = g <= stage%target + stage%tolerance .or. g - (stage%target + stage%tolerance) <= closing
+    end function reaches
+    recursive subroutine add_member(body)
+      integer, intent(in) :: body
+      integer :: old
+      if (bodies%fixed(body)) return
+      if (self%mark(body) == stamp) return
+      self%mark(body) = stamp
+      call sync(self, bodies, flight, body, T)
+      old = self%island_of(body)
+      if (old > 0) then
+        if (self%islands%islands(old)%t_start + self%islands%islands(old)%step <= T) then
+          ! its step ends now too: finished as planned, it joins
+          call finish_island(self, stage, bodies, shapes, flight, old, T, members, n_members, err)
+          call mark_all()
+          return
+        end if
+      end if
+      if (old > 0 .and. can_wait) then
+        ! free bodies reaching an island may wait for its next step and join it there: an
+        ! island that bodies land on one by one is not cut by each of them
+        if (wait_for == 0) wait_for = old
+        if (old /= wait_for) several = .true.
+        self%mark(body) = 0     ! (not a member: may be reached again)
+        return
+      end if
+      if (old > 0) then
+        ! a body of another island: that island's step ends here, all of it joins
+        call cut_island(self, stage, bodies, flight, old, T, members, n_members)
+        ! (cut_island appended its members; mark them)
+        call mark_all()
+        return
+      end if
+      call push(members, n_members, body)
+    end subroutine add_member
+    subroutine mark_all()
+      integer :: kk
+      do kk = 1, n_members
+        self%mark(members(kk)) = stamp
+      end do
+    end subroutine mark_all
+  end subroutine island_step
+
+  !> Free bodies join island slot (mid-step) as members that fly free until its step ends,
+  !> when its next step takes them in; their pairs certified up to there.
+  subroutine join_island(self, stage, bodies, shapes, flight, island, joiners, t, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: island, joiners(:)
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer :: k
+    self%stats%joins = self%stats%joins + size(joiners)
+    associate (isl => self%islands%islands(island))
+      do k = 1, size(joiners)
+        self%island_of(joiners(k)) = island
+        self%expiry(joiners(k)) = isl%t_start + isl%step
+      end do
+    end associate
+    call self%islands%append(island, joiners)
+    call certify_pairs_of(self, stage, bodies, shapes, flight, joiners, t, err)
+  end subroutine join_island
+
+  !> After an impact without contact passes: the bodies that changed get their pairs
+  !> certified again and their crossings rescheduled.
+  subroutine settle_changed(self, stage, bodies, shapes, flight, changed, t, err)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: changed(:)
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer :: k
+    do k = 1, size(changed)
+      if (norm2(bodies%x(:, changed(k)) - self%region_x(:, changed(k))) > 0.5_dp*self%margin) then
+        call replace(self, stage, bodies, shapes, flight, changed(k), t, err)
+        if (err%failed()) return
+      end if
+    end do
+    call certify_pairs_of(self, stage, bodies, shapes, flight, changed, t, err)
+    if (err%failed()) return
+    do k = 1, size(changed)
+      call schedule_crossing(self, bodies, flight, changed(k), t)
+    end do
+  end subroutine settle_changed
+
+  !> The pass's band pairs, each kept with the island of its moving body (islands(:): the
+  !> slots just made), for the island's sleeping at the end of its step.
+  subroutine keep_band_pairs(self, stage, bodies, islands)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(in) :: stage
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: islands(:)
+    integer :: k, c, island, body
+    do c = 1, size(islands)
+      associate (isl => self%islands%islands(islands(c)))
+        if (.not. allocated(isl%band_pairs)) allocate (isl%band_pairs(2, 4))
+        isl%n_band_pairs = 0
+      end associate
+    end do
+    do k = 1, stage%n_band_pairs
+      body = stage%band_pairs(1, k)
+      if (bodies%fixed(body)) body = stage%band_pairs(2, k)
+      if (bodies%fixed(body)) cycle
+      island = self%island_of(body)
+      if (island == 0) cycle
+      associate (isl => self%islands%islands(island))
+        if (isl%n_band_pairs == size(isl%band_pairs, 2)) call grow_pairs(isl%band_pairs)
+        isl%n_band_pairs = isl%n_band_pairs + 1
+        isl%band_pairs(:, isl%n_band_pairs) = stage%band_pairs(:, k)
+      end associate
+    end do
+  end subroutine keep_band_pairs
+
+  subroutine grow_pairs(x)
+    integer, allocatable, intent(inout) :: x(:, :)
+    integer, allocatable :: y(:, :)
+    allocate (y(2, 2*size(x, 2)))
+    y(:, 1:size(x, 2)) = x
+    call move_alloc(y, x)
+  end subroutine grow_pairs
+
+  !> Pair slots into the stage's table (their stored gaps and normals, not in a pass).
+  subroutine load_table(self, stage, bodies, slots)
+    type(event_loop_t), intent(in) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: slots(:)
+    integer :: k
+    call stage%reserve_table(size(slots), bodies%n_owned + bodies%n_ghost)
+    do k = 1, size(slots)
+      stage%pairs(:, k) = [self%pairs%a(slots(k)), self%pairs%b(slots(k))]
+      stage%pair_gap0(k) = self%pairs%gap(slots(k))
+      stage%pair_normal(:, k) = self%pairs%normal(:, slots(k))
+      stage%pair_far(k) = self%pairs%far(slots(k))
+      stage%pair_in_pass(k) = .false.
+    end do
+    stage%n_pairs = size(slots)
+  end subroutine load_table
+
+  !> The table's slots (and their flags) in increasing (gid a, gid b).
+  subroutine sort_table_impl(self, bodies, table, flags, n)
+    type(event_loop_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(inout) :: table(:)
+    logical, intent(inout) :: flags(:)
+    integer, intent(in) :: n
+    integer(i8), allocatable :: keys(:, :)
+    integer, allocatable :: order(:)
+    integer :: k
+    if (n < 2) return
+    allocate (keys(2, n))
+    do k = 1, n
+      keys(:, k) = [bodies%gid(self%pairs%a(table(k))), bodies%gid(self%pairs%b(table(k)))]
+    end do
+    call sort_index_keys(keys, order)
+    table(1:n) = table(order)
+    flags(1:n) = flags(order)
+  end subroutine sort_table_impl
+
+  subroutine push(list, n, value)
+    integer, allocatable, intent(inout) :: list(:)
+    integer, intent(inout) :: n
+    integer, intent(in) :: value
+    integer, allocatable :: grown(:)
+    if (.not. allocated(list)) allocate (list(16))
+    if (n == size(list)) then
+      allocate (grown(2*size(list)))
+      grown(1:n) = list(1:n)
+      call move_alloc(grown, list)
+    end if
+    n = n + 1
+    list(n) = value
+  end subroutine push
+
+  subroutine grow_logical(x)
+    logical, allocatable, intent(inout) :: x(:)
+    logical, allocatable :: y(:)
+    allocate (y(2*size(x)))
+    y(1:size(x)) = x
+    call move_alloc(y, x)
+  end subroutine grow_logical
+
+  !> Does body i (at t) have a pair within reach of a contact pass over dt_max?
+  logical function has_pass_pair(self, stage, bodies, shapes, flight, i, t) result(has)
+    type(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(in) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t
+    integer :: q, m
+    real(dp) :: closing
+    has = .false.
+    q = self%pairs%head(i)
+    do while (q > 0)
+      m = self%pairs%partner(q, i)
+      call sync(self, bodies, flight, m, t)
+      ! (certify measured every pair near enough: far ones are not within reach)
+      if (.not. self%pairs%far(q)) then
+        closing = pass_closing(self, shapes, bodies, i, m, self%dt_max)
+        if (self%pairs%gap(q) <= self%band) has = .true.
+        if (stage%materials%pair_restitution(bodies%group_id(i), bodies%group_id(m)) <= 0.0_dp .and. &
+            self%pairs%gap(q) - (stage%target + stage%tolerance) <= closing) has = .true.
+        if (has) return
+      end if
+      q = self%pairs%next_of(q, i)
+    end do
+  end function has_pass_pair
+
+end module event_loop
