@@ -396,7 +396,7 @@ class Ricochet:
         self.exe = os.environ.get('RICOCHET_EXE', os.path.join(ROOT, 'build', 'app', 'ricochet'))
         if not os.path.exists(self.exe):
             raise ImportError('no ricochet program at %s (build it first)' % self.exe)
-        self.version = 'ricochet (this repository)'
+        self.version = 'ricochet (this repository)' + ('' if self.events == 'auto' else ', %s event loop' % self.events)
         self.keep_history = None   # folder to copy each run's history.csv into, or None
 
     def settings(self):
