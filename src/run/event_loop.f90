@@ -707,11 +707,13 @@ contains
   end subroutine certify_pairs_of
 
   !> Pair slots in increasing (gid a, gid b): the order of work never depends on storage.
-  subroutine sort_slots(self, bodies, slots, n)
+  !> flags, when present, are reordered with them.
+  subroutine sort_slots(self, bodies, slots, n, flags)
     type(event_loop_t), intent(in) :: self
     type(bodies_t), intent(in) :: bodies
     integer, intent(inout) :: slots(:)
     integer, intent(in) :: n
+    logical, intent(inout), optional :: flags(:)
     integer(i8), allocatable :: keys(:, :)
     integer, allocatable :: order(:)
     integer :: k
@@ -722,6 +724,7 @@ contains
     end do
     call sort_index_keys(keys, order)
     slots(1:n) = slots(order)
+    if (present(flags)) flags(1:n) = flags(order)
   end subroutine sort_slots
 
   ! ---------------------------------------------------------------------------------------
@@ -1158,7 +1161,7 @@ contains
     end if
     self%stats%body_steps = self%stats%body_steps + n_members
     ! the table: every pair of a member, by global ids; the pass's travel bounds over h
-    call sort_table_impl(self, bodies, table, relevant, n_table)
+    call sort_slots(self, bodies, table, n_table, relevant)
     call stage%reserve_table(n_table, bodies%n_owned + bodies%n_ghost)
     call load_table(self, stage, bodies, table(1:n_table))
     stage%n_pairs = n_table
@@ -1461,26 +1464,6 @@ contains
     end do
     stage%n_pairs = size(slots)
   end subroutine load_table
-
-  !> The table's slots (and their flags) in increasing (gid a, gid b).
-  subroutine sort_table_impl(self, bodies, table, flags, n)
-    type(event_loop_t), intent(in) :: self
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(inout) :: table(:)
-    logical, intent(inout) :: flags(:)
-    integer, intent(in) :: n
-    integer(i8), allocatable :: keys(:, :)
-    integer, allocatable :: order(:)
-    integer :: k
-    if (n < 2) return
-    allocate (keys(2, n))
-    do k = 1, n
-      keys(:, k) = [bodies%gid(self%pairs%a(table(k))), bodies%gid(self%pairs%b(table(k)))]
-    end do
-    call sort_index_keys(keys, order)
-    table(1:n) = table(order)
-    flags(1:n) = flags(order)
-  end subroutine sort_table_impl
 
   subroutine push(list, n, value)
     integer, allocatable, intent(inout) :: list(:)

@@ -277,7 +277,7 @@ contains
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
     real(dp) :: h, t_end, dt_max, target, clock, time_new, h_event, h_planned, h_first
-    logical :: hits_output, hits_checkpoint
+    logical :: checkpointed
 
     t_end = self%deck%run%t_end
     dt_max = self%deck%run%dt_max
@@ -344,22 +344,8 @@ contains
       if (err%failed()) return
       call self%collisions%settle(self%bodies, self%shapes, self%propagator, h)
       self%resolve_wall = self%resolve_wall + (par%wtime() - clock)
-      hits_output = self%time >= self%next_output
-      hits_checkpoint = self%time >= self%next_checkpoint
-      if (hits_output .or. self%time >= t_end .or. self%time >= self%next_history) then
-        call self%record_history(par, err)
-        if (err%failed()) return
-        self%next_history = (aint(self%time/self%history_interval) + 1.0_dp)*self%history_interval
-      end if
-      if (hits_output .or. self%time >= t_end) then
-        call self%write_frame(par, err)
-        if (err%failed()) return
-      end if
-      if (hits_checkpoint .and. self%time < t_end) then
-        call self%write_checkpoint_now(par, 'checkpoint_'// &
-                                       str6(nint(self%time/self%deck%output%checkpoint_interval)), err)
-        if (err%failed()) return
-      end if
+      call write_due_outputs(self, par, t_end, checkpointed, err)
+      if (err%failed()) return
       call progress(self, par)
     end do
     call self%write_checkpoint_now(par, 'checkpoint_final', err)
@@ -374,7 +360,7 @@ contains
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
     real(dp) :: t_end, t_stop, t_hard, clock
-    logical :: hits_output, hits_checkpoint, hits_history
+    logical :: checkpointed
     integer(i8) :: events_before
     t_end = self%deck%run%t_end
     do while (self%time < t_end)
@@ -393,22 +379,9 @@ contains
       call self%events%synchronize(self%bodies, self%propagator, self%time)
       self%integration_wall = self%integration_wall + (par%wtime() - clock)
       self%collisions%stats%events = self%events%stats%impacts
-      hits_output = self%time >= self%next_output
-      hits_checkpoint = self%time >= self%next_checkpoint
-      hits_history = self%time >= self%next_history
-      if (hits_output .or. hits_history .or. self%time >= t_end) then
-        call self%record_history(par, err)
-        if (err%failed()) return
-        self%next_history = next_multiple(self%time, self%history_interval)
-      end if
-      if (hits_output .or. self%time >= t_end) then
-        call self%write_frame(par, err)
-        if (err%failed()) return
-      end if
-      if (hits_checkpoint .and. self%time < t_end) then
-        call self%write_checkpoint_now(par, 'checkpoint_'// &
-                                       str6(nint(self%time/self%deck%output%checkpoint_interval)), err)
-        if (err%failed()) return
+      call write_due_outputs(self, par, t_end, checkpointed, err)
+      if (err%failed()) return
+      if (checkpointed) then
         ! built again from the state written, exactly as a restart from it builds it
         call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
                               self%deck%integrator, self%time, self%deck%run%dt_max, &
@@ -420,6 +393,33 @@ contains
     call self%write_checkpoint_now(par, 'checkpoint_final', err)
     if (err%ok()) call write_events(self, par, err)
   end subroutine run_local
+
+  !> What is due at self%time, in both loops: a history row (at each history multiple,
+  !> output time and the end), a frame (output times and the end), a checkpoint (its
+  !> times before the end; checkpointed says one was written).
+  subroutine write_due_outputs(self, par, t_end, checkpointed, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    real(dp), intent(in) :: t_end
+    logical, intent(out) :: checkpointed
+    type(error_t), intent(inout) :: err
+    logical :: hits_output
+    hits_output = self%time >= self%next_output
+    checkpointed = self%time >= self%next_checkpoint .and. self%time < t_end
+    if (hits_output .or. self%time >= t_end .or. self%time >= self%next_history) then
+      call self%record_history(par, err)
+      if (err%failed()) return
+      self%next_history = next_multiple(self%time, self%history_interval)
+    end if
+    if (hits_output .or. self%time >= t_end) then
+      call self%write_frame(par, err)
+      if (err%failed()) return
+    end if
+    if (checkpointed) then
+      call self%write_checkpoint_now(par, 'checkpoint_'// &
+                                     str6(nint(self%time/self%deck%output%checkpoint_interval)), err)
+    end if
+  end subroutine write_due_outputs
 
   !> The event log (&output event_log), one file per rank (events.csv on one rank).
   subroutine write_events(self, par, err)

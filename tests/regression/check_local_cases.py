@@ -24,7 +24,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from ricochet_run import Checks, run, check_separation_floor, frames, checkpoint
+from ricochet_run import Checks, box_walls, run, check_separation_floor, frames, checkpoint
 
 exe, work = sys.argv[1], sys.argv[2]
 os.makedirs(work, exist_ok=True)
@@ -59,8 +59,7 @@ out = os.path.join(work, "chain")
 proc = run(exe, deck, out)
 check_separation_floor(c, proc)
 _, state = checkpoint(os.path.join(out, "checkpoint_final.h5"))
-v = state["velocity"] if "velocity" in state else state["v"]
-v = np.asarray(v).reshape(-1, 3) if np.asarray(v).shape[-1] == 3 else np.asarray(v).T
+v = state["v"]                 # (bodies, 3), gid order: A, B, C
 log = np.loadtxt(os.path.join(out, "events.csv"), delimiter=",", skiprows=1, ndmin=2)
 impacts = sorted(set(log[:, 0]))
 print(f"chain: impacts at {', '.join(f'{t:.6f}' for t in impacts)} s; final vx {v[:, 0]}")
@@ -79,14 +78,7 @@ lines = ["&run title = 'two clusters', t_end = 0.5, dt_max = 1.0e-2 /",
          "&contact restitution = 1.0 /",
          "&integrator events = 'local' /",
          "&output interval = 0.05 /"]
-for axis in range(3):
-    for side in (-1, 1):
-        size = [box + 2 * wall] * 3
-        size[axis] = wall
-        centre = [box / 2] * 3
-        centre[axis] = box / 2 + side * (box / 2 + wall / 2)
-        lines.append(f"&body name = 'wall{axis}{side:+d}', shape = 'box', size = %r, %r, %r, "
-                     "position = %r, %r, %r, fixed = .true. /" % (*size, *centre))
+lines += box_walls(box, wall)
 pos = []
 while len(pos) < gas:
     p = rng.uniform(R + 0.01, box - R - 0.01, 3)
@@ -124,13 +116,11 @@ worst_x = worst_q = 0.0
 series = frames(out)
 first_free = 6 + gas          # gids in deck order from 1: walls, gas, free
 for t, data in series:
-    gids = np.asarray(data["gid"])
+    gids = data["gid"]
     for k, (x0, v0, w0) in enumerate(free):
         row = int(np.nonzero(gids == first_free + k + 1)[0][0])
-        x = np.asarray(data["position"])[row] if np.asarray(data["position"]).shape[-1] == 3 \
-            else np.asarray(data["position"])[:, row]
-        q = np.asarray(data["orientation"])[row] if np.asarray(data["orientation"]).shape[-1] == 4 \
-            else np.asarray(data["orientation"])[:, row]
+        x = data["position"][row]          # frames: (bodies, 3) and (bodies, 4)
+        q = data["orientation"][row]
         angle = np.linalg.norm(w0) * t
         axis = w0 / np.linalg.norm(w0)
         q_exact = quat_mul(np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * axis]), [1.0, 0, 0, 0])

@@ -24,7 +24,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from ricochet_run import Checks, checkpoint, check_separation_floor
+from ricochet_run import Checks, box_walls, checkpoint, check_separation_floor
 
 exe, work = sys.argv[1], sys.argv[2]
 os.makedirs(work, exist_ok=True)
@@ -54,14 +54,7 @@ def gas_deck(path, shape, n, seed, events, t_end):
              "&contact restitution = 1.0 /",
              f"&integrator events = '{events}' /",
              f"&output write_frames = .false., event_log = .true., history_interval = {t_end / 5!r} /"]
-    for axis in range(3):
-        for side in (-1, 1):
-            size = [box + 2 * wall] * 3
-            size[axis] = wall
-            centre = [box / 2] * 3
-            centre[axis] = box / 2 + side * (box / 2 + wall / 2)
-            lines.append(f"&body name = 'wall{axis}{side:+d}', shape = 'box', size = %r, %r, %r, "
-                         "position = %r, %r, %r, fixed = .true. /" % (*size, *centre))
+    lines += box_walls(box, wall)
     body = f"shape = 'sphere', radius = {RADIUS}" if shape == "sphere" else f"shape = 'box', size = {EDGE}, {EDGE}, {EDGE}"
     for k in range(n):
         lines.append("&body name = 'b%d', %s, density = 1000.0, position = %r, %r, %r, orientation = %r, %r, %r, %r, "

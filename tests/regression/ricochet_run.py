@@ -26,6 +26,20 @@ class Checks:
         sys.exit(1 if self.failed else 0)
 
 
+def box_walls(box, wall):
+    """&body lines of six fixed walls of thickness `wall` [m] around the cube [0, box]^3."""
+    lines = []
+    for axis in range(3):
+        for side in (-1, 1):
+            size = [box + 2 * wall] * 3
+            size[axis] = wall
+            centre = [box / 2] * 3
+            centre[axis] = box / 2 + side * (box / 2 + wall / 2)
+            lines.append(f"&body name = 'wall{axis}{side:+d}', shape = 'box', size = %r, %r, %r, "
+                         "position = %r, %r, %r, fixed = .true. /" % (*size, *centre))
+    return lines
+
+
 def run(exe, deck, out_dir, *extra, expect_ok=True):
     """Runs ricochet; returns the completed process (stdout, stderr, returncode)."""
     cmd = [exe, deck, "--output-dir", out_dir, *extra]
