@@ -4,20 +4,25 @@
 !> without HDF5 shares it; checkpoint_io (src/io/hdf5/) reads and writes it.
 module checkpoint_meta
   use kinds, only: dp, i8
-  use constants, only: name_length, pi
+  use constants, only: name_length, pi, line_length
   use error_status, only: error_t, ERR_CHECKPOINT
   use string_utils, only: str
   use body_state, only: bodies_t
   use parallel_env, only: parallel_t
+  use digest, only: digest_t, digest_sum, digest_parts, digest_from_parts
   implicit none
   private
   public :: checkpoint_meta_t, checkpoint_magic, checkpoint_version, checkpoint_title_length, &
-            checksum_rtol, bodies_checksum, check_checkpoint_matches
+            checksum_rtol, bodies_checksum, check_checkpoint_matches, bodies_state_digest, rows_state_digest, &
+            deck_line_length, shape_label_length
 
   !> Written as the root attribute 'format': files without it are not ricochet checkpoints.
   character(len=*), parameter :: checkpoint_magic = 'ricochet-checkpoint'
   !> Raised whenever the layout changes incompatibly; readers refuse other versions.
-  integer, parameter :: checkpoint_version = 1
+  !> Version 2 added the state digest, the shapes' geometry digests and the effective deck.
+  integer, parameter :: checkpoint_version = 2
+  integer, parameter :: deck_line_length = line_length   !< a line of the effective deck (paths included)
+  integer, parameter :: shape_label_length = line_length  !< a shape's label (mesh paths included)
   integer, parameter :: checkpoint_title_length = 256   !< as run_config_t%title
   !> The checksum is a floating-point sum whose order depends on how bodies are spread over
   !> ranks: it is reproducible to about n_bodies*epsilon, so compare with this relative
@@ -43,6 +48,14 @@ module checkpoint_meta
     integer(i8) :: n_bodies_total = 0
     character(len=checkpoint_title_length) :: title = ''
     real(dp) :: checksum = 0.0_dp                !< bodies_checksum of the deck's bodies
+    !> Digest of every body row, as read (write_checkpoint computes what it stores).
+    integer(i8) :: state_digest = 0
+    !> Per shape of the library: its geometry digest (shape_digest) and label.
+    integer(i8), allocatable :: shape_digests(:)
+    character(len=shape_label_length), allocatable :: shape_labels(:)
+    !> The effective deck that made the checkpoint (deck_reader effective_deck_lines):
+    !> a restart compares it with its own, variable by variable.
+    character(len=deck_line_length), allocatable :: deck_lines(:)
     !> Statistics that later parts of the run accumulate (contacts, events, ...), by name.
     real(dp), allocatable :: counters(:)
     character(len=name_length), allocatable :: counter_names(:)
@@ -69,6 +82,50 @@ contains
     end do
     checksum = par%sum(local)
   end function bodies_checksum
+
+  !> Digest of one body row: every dataset a checkpoint stores for it, bit for bit.
+  pure integer(i8) function row_digest(bodies, i)
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    type(digest_t) :: d
+    call d%add_int8(bodies%gid(i))
+    call d%add_int(bodies%shape_id(i))
+    call d%add_int(bodies%group_id(i))
+    call d%add_int(merge(1, 0, bodies%fixed(i)))
+    call d%add_real(bodies%mass(i))
+    call d%add_real(bodies%inv_mass(i))
+    call d%add_reals(bodies%inertia(:, i))
+    call d%add_reals(bodies%inv_inertia(:, i))
+    call d%add_reals(bodies%x(:, i))
+    call d%add_reals(bodies%q(:, i))
+    call d%add_reals(bodies%v(:, i))
+    call d%add_reals(bodies%w(:, i))
+    call d%add_reals(bodies%a(:, i))
+    call d%add_reals(bodies%alpha(:, i))
+    row_digest = d%value()
+  end function row_digest
+
+  !> Digest of the owned bodies of every rank, independent of how they are spread over
+  !> ranks and stored (collective): what write_checkpoint stores.
+  integer(i8) function bodies_state_digest(par, bodies) result(value)
+    type(parallel_t), intent(in) :: par
+    type(bodies_t), intent(in) :: bodies
+    integer(i8) :: h(2)
+    h = digest_parts(rows_state_digest(bodies))
+    value = digest_from_parts([par%sum(h(1)), par%sum(h(2))])
+  end function bodies_state_digest
+
+  !> The same digest of the owned rows of bodies alone (serial): what a reader compares.
+  pure integer(i8) function rows_state_digest(bodies) result(value)
+    type(bodies_t), intent(in) :: bodies
+    integer(i8), allocatable :: rows(:)
+    integer :: i
+    allocate (rows(bodies%n_owned))
+    do i = 1, bodies%n_owned
+      rows(i) = row_digest(bodies, i)
+    end do
+    value = digest_sum(rows)
+  end function rows_state_digest
 
   !> Checks that a checkpoint (meta, read from path) belongs to the deck described by
   !> expected (n_bodies_total, title, checksum filled from the deck); names every difference.

@@ -28,6 +28,7 @@
 !> the effective deck.
 module deck_reader
   use kinds, only: i8
+  use constants, only: line_length
   use error_status, only: error_t, ERR_INPUT
   use string_utils, only: str, dirname
   use input_config, only: deck_t, body_spec_t
@@ -40,7 +41,7 @@ module deck_reader
   use body_group, only: read_body_group, write_body_group
   implicit none
   private
-  public :: read_deck, write_effective_deck, DECK_AUTO
+  public :: read_deck, write_effective_deck, effective_deck_lines, DECK_AUTO
 
 contains
 
@@ -186,5 +187,61 @@ contains
       call write_body_group(deck%bodies(k), k, unit)
     end do
   end subroutine write_effective_deck
+
+  !> The effective deck as 'variable = value' lines under their group headers ('&run',
+  !> '&body #3', '/'), comments dropped: what a checkpoint stores, so that a restart can
+  !> name every variable its deck changed.
+  subroutine effective_deck_lines(deck, lines)
+    type(deck_t), intent(in) :: deck
+    character(len=line_length), allocatable, intent(out) :: lines(:)
+    character(len=line_length), allocatable :: grown(:)
+    character(len=line_length) :: line
+    integer :: unit, status, n, k
+    open (newunit=unit, status='scratch', action='readwrite', form='formatted')
+    call write_effective_deck(deck, unit)
+    rewind (unit)
+    allocate (lines(64))
+    n = 0
+    do
+      read (unit, '(a)', iostat=status) line
+      if (status /= 0) exit
+      line = adjustl(line)
+      if (line(1:1) == '!' .or. len_trim(line) == 0) cycle
+      if (line(1:8) == '&body ! ') then
+        line = '&body '//trim(line(9:))
+      else
+        k = comment_start(line)
+        if (k > 0) line = line(1:k - 1)
+      end if
+      if (n == size(lines)) then
+        allocate (grown(2*n))
+        grown(1:n) = lines(1:n)
+        call move_alloc(grown, lines)
+      end if
+      n = n + 1
+      lines(n) = line
+    end do
+    close (unit)
+    lines = lines(1:n)
+  end subroutine effective_deck_lines
+
+  !> Where a '!' comment starts outside quotes (0: none).
+  pure integer function comment_start(line) result(at)
+    character(len=*), intent(in) :: line
+    character :: quote
+    integer :: i
+    quote = ' '
+    at = 0
+    do i = 1, len_trim(line)
+      if (quote /= ' ') then
+        if (line(i:i) == quote) quote = ' '
+      else if (line(i:i) == '''' .or. line(i:i) == '"') then
+        quote = line(i:i)
+      else if (line(i:i) == '!') then
+        at = i
+        return
+      end if
+    end do
+  end function comment_start
 
 end module deck_reader

@@ -2,15 +2,20 @@
 !> drives the loop { choose the step -> advance the bodies -> history, frames, checkpoints }.
 !> Each stage reads the state and writes only its own result; only this loop owns time.
 module simulation
+  use, intrinsic :: iso_fortran_env, only: output_unit
   use kinds, only: dp, i8
-  use constants, only: name_length
-  use error_status, only: error_t, ERR_INPUT, ERR_NUMERIC, ERR_CHECKPOINT
+  use constants, only: name_length, line_length
+  use error_status, only: error_t, ERR_INPUT, ERR_NUMERIC, ERR_CHECKPOINT, ERR_INTERNAL
   use string_utils, only: str, join_path
   use parallel_env, only: parallel_t
   use input_config, only: deck_t, EVENTS_LOCAL, EVENTS_GLOBAL, ROTATION_EXACT
   use shape, only: shape_library_t
   use body_state, only: bodies_t
-  use body_builder, only: build_shapes, build_bodies, count_bodies, owned_range
+  use body_builder, only: build_shapes, build_bodies, count_bodies
+  use ownership, only: contact_possible, owned_block
+  use restart_check, only: check_restored_state, check_same_bodies, compare_decks, deck_change_t
+  use shape_digest, only: geometry_digest
+  use deck_reader, only: effective_deck_lines
   use conservation, only: system_totals_t, compute_totals
   use overlap_check, only: check_initial_overlaps
   use collision_stage, only: collision_stage_t, smallest_moving_extent
@@ -83,7 +88,10 @@ contains
     character(len=*), intent(in) :: restart_path   !< checkpoint to continue from, or ''
     type(error_t), intent(inout) :: err
     integer, allocatable :: shape_of_group(:)
-    integer(i8) :: first, last
+    type(bodies_t) :: everyone
+    type(checkpoint_meta_t) :: meta
+    integer(i8) :: first, last, pair(2)
+    logical :: contacts
     integer :: k
 
     self%deck = deck
@@ -98,23 +106,40 @@ contains
     call build_shapes(deck, self%shapes, shape_of_group, err)
     if (err%failed()) return
     self%n_total = count_bodies(deck)
-    call owned_range(self%n_total, par%rank, par%n_ranks, first, last)
-    call build_bodies(deck, self%shapes, shape_of_group, deck%run%gravity, first, last, self%bodies, err)
+    ! Every rank builds every body (ids in deck order): the start-up checks, a restart's
+    ! comparison and the choice of owners need them all (O(all bodies) until the domain
+    ! decomposition lands).
+    call build_bodies(deck, self%shapes, shape_of_group, deck%run%gravity, 1_i8, self%n_total, everyone, err)
     if (err%failed()) return
-    call self%propagator%init(self%bodies%n_owned, deck%integrator)
-    if (len_trim(restart_path) == 0) then
-      call check_overlaps(self, par, shape_of_group, err)
+    if (len_trim(restart_path) > 0) then
+      ! Everything about the checkpoint is checked before any output is touched.
+      call restore_checkpoint(self, par, restart_path, everyone, meta, err)
+      if (err%failed()) return
+    else
+      call check_initial_overlaps(deck, self%shapes, everyone, err)
       if (err%failed()) return
     end if
+    ! Owners: contiguous id blocks when no two bodies can touch before t_end, otherwise
+    ! every body on rank 0 (contacts across ranks need the domain decomposition).
+    contacts = .false.
+    if (par%n_ranks > 1) then
+      contacts = contact_possible(self%shapes, everyone, deck%run%t_end - self%time, deck%run%gravity, pair)
+      if (contacts .and. par%is_root()) then
+        write (*, '(a)') 'ricochet: notice: bodies '//str(pair(1))//' and '//str(pair(2))//' may touch before '// &
+          't_end, and contacts between bodies of different ranks need the domain decomposition (not built '// &
+          'yet): every body runs on rank 0, the other '//str(par%n_ranks - 1)//' rank(s) wait'
+        flush (output_unit)
+      end if
+    end if
+    call owned_block(self%n_total, par%rank, par%n_ranks, contacts, first, last)
+    call take_rows(everyone, first, last, self%bodies)
+    call everyone%free()
+    call self%propagator%init(self%bodies%n_owned, deck%integrator)
     ! One grid box size and one auto minimum separation for every rank: from the smallest
     ! moving body of all.
     call self%collisions%init(deck, self%shapes, self%bodies, err, &
                               smallest_extent=par%min(smallest_moving_extent(self%shapes, self%bodies)))
     if (err%failed()) return
-    ! Until domain decomposition with halo exchange lands, each rank sees only its own bodies.
-    if (par%n_ranks > 1 .and. par%is_root()) write (*, '(a)') &
-      'ricochet: warning: on several ranks, collisions between bodies of different ranks are not '// &
-      'detected yet (bodies are split by id, no halo exchange): run collision scenes on one rank'
 
     self%collisions%log_events = deck%output%event_log
     ! The event loop: local (default with exact rotation) or global steps.
@@ -145,8 +170,7 @@ contains
     if (err%failed()) return
 
     if (len_trim(restart_path) > 0) then
-      call self%restart_from(par, restart_path, first, last, err)
-      if (err%failed()) return
+      call self%restart_from(meta)
     else
       call compute_totals(par, self%bodies, deck%run%gravity, self%initial)
     end if
@@ -168,52 +192,95 @@ contains
                                           min(deck%run%t_end, self%next_checkpoint), err)
   end subroutine simulation_init
 
-  !> A deck whose bodies overlap at the start is refused. Every rank checks every pair (the
-  !> check runs once, through the bucket grid), so all ranks agree on the error.
-  subroutine check_overlaps(self, par, shape_of_group, err)
-    type(simulation_t), intent(in) :: self
-    type(parallel_t), intent(in) :: par
-    integer, intent(in) :: shape_of_group(:)
-    type(error_t), intent(inout) :: err
-    type(bodies_t) :: everyone
-    if (par%n_ranks == 1) then
-      call check_initial_overlaps(self%deck, self%shapes, self%bodies, err)
-    else
-      call build_bodies(self%deck, self%shapes, shape_of_group, self%deck%run%gravity, 1_i8, self%n_total, &
-                        everyone, err)
-      if (err%ok()) call check_initial_overlaps(self%deck, self%shapes, everyone, err)
-    end if
-  end subroutine check_overlaps
-
-  !> Continues from a checkpoint written by a run of the same deck.
-  subroutine restart_from(self, par, path, first, last, err)
-    class(simulation_t), intent(inout) :: self
+  !> Reads a checkpoint and checks, before any output is touched, that this run can
+  !> continue from it (restart_check): it is intact (digest), not at or past t_end, made
+  !> by this deck (bodies, shapes, physics), its state sane and free of overlaps. Then the
+  !> saved state replaces the deck's in bodies (all bodies, global-id order).
+  subroutine restore_checkpoint(self, par, path, bodies, meta, err)
+    type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     character(len=*), intent(in) :: path
-    integer(i8), intent(in) :: first, last
+    type(bodies_t), intent(inout) :: bodies
+    type(checkpoint_meta_t), intent(out) :: meta
     type(error_t), intent(inout) :: err
-    type(checkpoint_meta_t) :: meta, expected
+    type(checkpoint_meta_t) :: expected
     type(bodies_t) :: saved
-    integer :: i, n
+    type(deck_change_t) :: changes
+    character(len=line_length), allocatable :: lines(:)
+    real(dp) :: box
+    integer :: i, j
 
     call read_checkpoint(par, path, meta, saved, err)
     if (err%failed()) return
-    call self%fill_meta(par, expected)
-    call check_checkpoint_matches(meta, expected, path, err)
-    if (err%failed()) return
-    ! Keep the bodies this rank owns, each at its place in global-id order.
-    n = 0
-    do i = 1, saved%n_owned
-      if (saved%gid(i) < first .or. saved%gid(i) > last) cycle
-      n = n + 1
-      call copy_body(saved, i, self%bodies, int(saved%gid(i) - first + 1))
-    end do
-    ! Agreed over ranks, so every rank fails alike (and rank 0 reports it).
-    if (par%any(n /= self%bodies%n_owned)) then
-      call err%set(ERR_CHECKPOINT, "checkpoint '"//path//"' does not hold every body of the deck (ids 1.."// &
-                   str(self%n_total)//')')
+    if (.not. (meta%time < self%deck%run%t_end)) then
+      call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"' is at t = "//str(meta%time)// &
+                   ' s, not before &run t_end = '//str(self%deck%run%t_end)//' s of '//self%deck%path// &
+                   ': nothing left to run (raise t_end to continue the run)')
       return
     end if
+    expected%n_bodies_total = self%n_total
+    expected%title = self%deck%run%title
+    expected%checksum = bodies_checksum_serial(bodies)
+    call check_checkpoint_matches(meta, expected, path, err)
+    if (err%failed()) return
+    call effective_deck_lines(self%deck, lines)
+    call compare_decks(meta%deck_lines, lines, path, changes, err)
+    if (err%failed()) return
+    call check_same_bodies(self%deck, meta, saved, self%shapes, bodies, path, err)
+    if (err%failed()) return
+    box = smallest_moving_extent(self%shapes, bodies)
+    if (box == huge(1.0_dp)) box = 1.0_dp
+    call check_restored_state(self%deck, saved, box, path, err)
+    if (err%failed()) return
+    do j = 1, saved%n_owned
+      i = int(saved%gid(j))
+      call copy_body(saved, j, bodies, i)
+    end do
+    call check_initial_overlaps(self%deck, self%shapes, bodies, err)
+    if (err%failed()) then
+      call err%prefix("checkpoint '"//trim(path)//"': ")
+      return
+    end if
+    if (par%is_root()) then
+      do i = 1, size(changes%notices)
+        write (*, '(a)') '  restart notice: '//trim(changes%notices(i))
+      end do
+      if (changes%n_allowed > 0) then
+        write (*, '(a)') '  the deck changed '//str(changes%n_allowed)//' output or end-time variable(s): the '// &
+          'continuation is not bitwise the uninterrupted run'
+      else
+        write (*, '(a)') '  the deck is unchanged: the run continues bitwise as the uninterrupted run'
+      end if
+      flush (output_unit)
+    end if
+  end subroutine restore_checkpoint
+
+  !> The deck fingerprint of bodies held whole on every rank (no reduction needed).
+  real(dp) function bodies_checksum_serial(bodies) result(checksum)
+    type(bodies_t), intent(in) :: bodies
+    type(parallel_t) :: one_rank
+    checksum = bodies_checksum(one_rank, bodies)
+  end function bodies_checksum_serial
+
+  !> Rows first..last of all (global ids in order) become the owned bodies of this rank.
+  subroutine take_rows(all, first, last, owned)
+    type(bodies_t), intent(in) :: all
+    integer(i8), intent(in) :: first, last
+    type(bodies_t), intent(inout) :: owned
+    integer :: i, n
+    n = int(max(0_i8, last - first + 1))
+    call owned%allocate(n)
+    do i = 1, n
+      call copy_body(all, int(first) + i - 1, owned, i)
+    end do
+    owned%n_owned = n
+    owned%n_ghost = 0
+  end subroutine take_rows
+
+  !> Continues from a checkpoint (restore_checkpoint has checked it and restored bodies).
+  subroutine restart_from(self, meta)
+    class(simulation_t), intent(inout) :: self
+    type(checkpoint_meta_t), intent(in) :: meta
     self%time = meta%time
     self%step = meta%step
     self%first_step = meta%step
@@ -466,10 +533,11 @@ contains
     rec%momentum = now%momentum
     rec%angular_momentum = now%angular_momentum
     rec%wall_time = self%wall_before + (par%wtime() - self%wall_start)
-    rec%events = self%collisions%stats%events
-    rec%contacts = self%collisions%stats%contacts
-    rec%advancement_iterations = self%collisions%stats%advancement_iterations
-    rec%min_separation = self%collisions%stats%min_separation
+    ! (over every rank: the same row on any number of ranks)
+    rec%events = par%sum(self%collisions%stats%events)
+    rec%contacts = par%sum(self%collisions%stats%contacts)
+    rec%advancement_iterations = par%sum(self%collisions%stats%advancement_iterations)
+    rec%min_separation = par%min(self%collisions%stats%min_separation)
     rec%asleep = self%collisions%sleep%n_asleep
     call self%history%write(par, rec, err)
     ! Conservation errors relative to the initial kinetic plus |potential| energy scale, and
@@ -493,8 +561,12 @@ contains
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
-    if (self%deck%output%check_overlaps .and. par%n_ranks == 1) then
+    if (self%deck%output%check_overlaps) then
+      ! Each rank checks its bodies: all of them on rank 0 when contacts are possible, and
+      ! blocks that cannot touch otherwise (ownership): the verdict is agreed by all.
       call check_initial_overlaps(self%deck, self%shapes, self%bodies, err, time=self%time)
+      if (par%any(err%failed()) .and. err%ok()) call err%set(ERR_INTERNAL, &
+        'another rank found bodies that interpenetrate (&output check_overlaps)')
       if (err%failed()) return
     end if
     if (.not. self%deck%output%write_frames) then
@@ -535,6 +607,7 @@ contains
     class(simulation_t), intent(in) :: self
     type(parallel_t), intent(in) :: par
     type(checkpoint_meta_t), intent(out) :: meta
+    integer :: k
     meta%time = self%time
     meta%step = self%step
     meta%n_frames = self%frames%n_frames
@@ -549,6 +622,12 @@ contains
     meta%n_bodies_total = self%n_total
     meta%title = self%deck%run%title
     meta%checksum = bodies_checksum(par, self%bodies)
+    allocate (meta%shape_digests(self%shapes%n_shapes), meta%shape_labels(self%shapes%n_shapes))
+    do k = 1, self%shapes%n_shapes
+      meta%shape_digests(k) = geometry_digest(self%shapes%shapes(k))
+      meta%shape_labels(k) = self%shapes%shapes(k)%label
+    end do
+    call effective_deck_lines(self%deck, meta%deck_lines)
     meta%counter_names = [character(len=name_length) :: 'initial_kinetic_translational', &
                           'initial_kinetic_rotational', 'initial_potential', 'max_energy_error', &
                           'max_momentum_error', 'max_angular_momentum_error', 'events', 'contacts', &
@@ -577,8 +656,14 @@ contains
   subroutine simulation_summary(self, par)
     class(simulation_t), intent(in) :: self
     type(parallel_t), intent(in) :: par
-    real(dp) :: wall, per_step
+    real(dp) :: wall, per_step, min_sep
+    integer(i8) :: events, contacts, pair_tests
     wall = par%wtime() - self%wall_start
+    ! Over every rank (collective, before rank 0 alone goes on to print).
+    events = par%sum(self%collisions%stats%events)
+    contacts = par%sum(self%collisions%stats%contacts)
+    pair_tests = par%sum(self%collisions%stats%pair_tests)
+    min_sep = par%min(self%collisions%stats%min_separation)
     if (.not. par%is_root()) return
     per_step = wall/max(real(self%step - self%first_step, dp), 1.0_dp)
     write (*, '(a)') 'ricochet: run finished at t = '//str(self%time, '(g0.6)')//' s'
@@ -593,7 +678,7 @@ contains
       ' s, detection '//str(self%detection_wall, '(es9.3)')//' s, impacts and sleeping '// &
       str(self%resolve_wall, '(es9.3)')//' s'
     write (*, '(a,i0,a,i0,a)') '  bodies               ', self%n_total, ' in ', self%shapes%n_shapes, ' distinct shapes'
-    if (self%collisions%stats%events > 0) write (*, '(a)') &
+    if (events > 0) write (*, '(a)') &
       '  (with contacts, energy is an invariant only for e = 1, momentum and angular momentum only '// &
       'without fixed bodies)'
     write (*, '(a,es10.3,a)') '  energy error (max)   ', self%max_energy_error, '  (relative to kinetic + |potential|)'
@@ -602,8 +687,8 @@ contains
       '  (about the centre of mass, relative to max(|L0|, sqrt(2 T I)))'
     write (*, '(a,i0,a,i0,a,i0)') '  rotation iterations  ', self%flight%iterations_total, ' (max per update ', &
       self%flight%iterations_max, '), not converged: ', self%flight%not_converged
-    write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  contact events       ', self%collisions%stats%events, ' (', &
-      self%collisions%stats%contacts, ' contact points, ', self%collisions%impulses%groups, ' impulse groups, ', &
+    write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  contact events       ', events, ' (', &
+      contacts, ' contact points, ', self%collisions%impulses%groups, ' impulse groups, ', &
       self%collisions%stats%corrections, ' distance corrections, '// &
       str(self%collisions%stats%corrections_capped)//' of them cut to half the band)'
     if (self%local) then
@@ -618,7 +703,7 @@ contains
           str(self%events%bodies_unchanged(self%bodies))//' bodies never changed trajectory'
       end associate
     end if
-    write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', self%collisions%stats%pair_tests, ' pair queries, ', &
+    write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', pair_tests, ' pair queries, ', &
       self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, &
       ' capped, '//str(self%collisions%stats%plane_skips)//' started from a second-order safe time)'
     associate (rest => self%collisions%resting)
@@ -640,13 +725,14 @@ contains
       if (sleep%enabled()) write (*, '(a,i0,a,i0,a,i0,a)') '  sleeping             ', sleep%sleeps, &
         ' bodies put to sleep, ', sleep%wakes, ' woken, ', sleep%n_asleep_at_wake_all, ' asleep at the end'
     end associate
-    if (self%collisions%stats%min_separation < huge(1.0_dp)) then
-      write (*, '(a,es10.3,a,es10.3,a)') '  smallest separation  ', self%collisions%stats%min_separation, &
+    if (min_sep < huge(1.0_dp)) then
+      write (*, '(a,es10.3,a,es10.3,a)') '  smallest separation  ', min_sep, &
         ' m (minimum separation ', self%collisions%target, ' m)'
     else
       write (*, '(a)') '  smallest separation  no two bodies ever came near'
     end if
     write (*, '(a,i0,a)') '  frames written       ', self%frames%n_frames, ' in '//self%output_dir
+    flush (output_unit)
   end subroutine simulation_summary
 
   subroutine simulation_free(self)

@@ -15,4 +15,4 @@ with h5py.File("checkpoint_version_999.h5", "w") as f:
 # Right format and version, but nothing else: damaged.
 with h5py.File("checkpoint_empty.h5", "w") as f:
     f.attrs["format"] = np.bytes_("ricochet-checkpoint")
-    f.attrs["version"] = np.int32(1)
+    f.attrs["version"] = np.int32(2)

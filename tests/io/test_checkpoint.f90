@@ -104,7 +104,7 @@ program test_checkpoint
   call expect_failure(test_data_path('foreign.h5'), [character(len=40) :: 'foreign.h5', &
                       'not a ricochet checkpoint'], 'HDF5 file without the magic')
   call expect_failure(test_data_path('checkpoint_version_999.h5'), [character(len=40) :: &
-                      'checkpoint_version_999.h5', 'version 999', 'reads version 1'], 'future version')
+                      'checkpoint_version_999.h5', 'version 999', 'reads version 2'], 'future version')
   call expect_failure(test_data_path('checkpoint_empty.h5'), [character(len=40) :: 'checkpoint_empty.h5', &
                       'is damaged', "'time' is missing"], 'header only')
   ! A checkpoint that cannot be written (its folder would be under a file) names the path.

@@ -17,7 +17,7 @@ module checkpoint_io
   use body_state, only: bodies_t
   use file_system, only: make_directory, rename_file, file_exists
   use checkpoint_meta, only: checkpoint_meta_t, checkpoint_magic, checkpoint_version, &
-                             check_checkpoint_matches
+                             check_checkpoint_matches, rows_state_digest, bodies_state_digest, deck_line_length, shape_label_length
   use h5_utils, only: hid_t, h5u_start, h5u_quiet, h5u_create_parallel, h5u_open_parallel, h5u_close_file, &
                       h5u_create_group, h5u_open_group, h5u_close_group, h5u_has_attr, h5u_write, &
                       h5u_write_strings, h5u_write_attr, h5u_read_attr, h5u_read_real_2d, h5u_read_real_1d, &
@@ -42,9 +42,12 @@ contains
     real(dp), allocatable :: frame_times(:), counters(:)
     character(len=name_length), allocatable :: counter_names(:)
     character(len=:), allocatable :: temporary
+    integer(i8), allocatable :: shape_digests(:)
+    integer(i8) :: n_shapes, n_lines, state_digest
     integer :: n
     if (err%failed()) return
     n = bodies%n_owned
+    state_digest = bodies_state_digest(par, bodies)
     n_local = n
     n_total = par%sum(n_local)
     offset = par%exscan(n_local)
@@ -88,6 +91,12 @@ contains
     end if
     allocate (fixed(n))
     fixed = merge(1, 0, bodies%fixed(1:n))
+    n_shapes = 0
+    if (allocated(meta%shape_digests)) n_shapes = size(meta%shape_digests)
+    n_lines = 0
+    if (allocated(meta%deck_lines)) n_lines = size(meta%deck_lines)
+    allocate (shape_digests(0))
+    if (par%is_root() .and. n_shapes > 0) shape_digests = meta%shape_digests
 
     temporary = trim(path)//'.tmp'
     call h5u_create_parallel(par, temporary, file_id, err)
@@ -107,12 +116,23 @@ contains
     call h5u_write_attr(file_id, 'title', meta%title, err)
     call h5u_write_attr(file_id, 'checksum', meta%checksum, err)
     call h5u_write_attr(file_id, 'n_ranks', par%n_ranks, err)
+    call h5u_write_attr(file_id, 'state_digest', state_digest, err)
 
     call h5u_create_group(file_id, 'meta', group_id, err)
     n_rows = meta%n_frames
     call h5u_write(group_id, 'frame_times', frame_times, n_rows, 0_i8, err)
     call h5u_write(group_id, 'counters', counters, n_counters, 0_i8, err)
     call h5u_write_strings(group_id, 'counter_names', counter_names, n_counters, 0_i8, err)
+    call h5u_close_group(group_id)
+
+    ! What made the bodies: the shapes' geometry and the effective deck (rank 0 writes them).
+    call h5u_create_group(file_id, 'shapes', group_id, err)
+    call h5u_write(group_id, 'digest', shape_digests, n_shapes, 0_i8, err)
+    ! (the string width is part of the collective dataset creation: the same on every rank)
+    call write_rows_on_root(group_id, 'label', meta%shape_labels, n_shapes)
+    call h5u_close_group(group_id)
+    call h5u_create_group(file_id, 'deck', group_id, err)
+    call write_rows_on_root(group_id, 'effective', meta%deck_lines, n_lines)
     call h5u_close_group(group_id)
 
     call h5u_create_group(file_id, 'bodies', group_id, err)
@@ -141,6 +161,27 @@ contains
     call par%barrier()
     if (par%is_root()) call rename_file(temporary, path, err)
     call agree(par, err, 'publishing a checkpoint failed on rank 0')
+
+  contains
+
+    !> Rank 0 writes every line (as narrow as the longest), the others take part with none.
+    subroutine write_rows_on_root(group_id, name, lines, n_rows)
+      integer(hid_t), intent(in) :: group_id
+      character(len=*), intent(in) :: name
+      character(len=*), allocatable, intent(in) :: lines(:)
+      integer(i8), intent(in) :: n_rows
+      character(len=:), allocatable :: narrow(:)
+      if (n_rows > 0) then
+        narrow = compact(lines)
+      else
+        allocate (character(len=1) :: narrow(0))
+      end if
+      if (par%is_root()) then
+        call h5u_write_strings(group_id, name, narrow, n_rows, 0_i8, err)
+      else
+        call h5u_write_strings(group_id, name, narrow(1:0), n_rows, 0_i8, err)
+      end if
+    end subroutine write_rows_on_root
   end subroutine write_checkpoint
 
   !> Reads a whole checkpoint on every rank (collective): all bodies come back as owned
@@ -224,6 +265,21 @@ contains
     call h5u_read_attr(file_id, 'n_bodies_total', meta%n_bodies_total, err)
     call h5u_read_attr(file_id, 'title', title, err)
     call h5u_read_attr(file_id, 'checksum', meta%checksum, err)
+    call h5u_read_attr(file_id, 'state_digest', meta%state_digest, err)
+
+    call h5u_open_group(file_id, 'shapes', group_id, err)
+    call h5u_read_int8_1d(group_id, 'digest', meta%shape_digests, err)
+    call read_long_strings(group_id, 'label', shape_label_length, meta%shape_labels, err)
+    call h5u_close_group(group_id)
+    call h5u_open_group(file_id, 'deck', group_id, err)
+    call read_long_strings(group_id, 'effective', deck_line_length, meta%deck_lines, err)
+    call h5u_close_group(group_id)
+    if (err%failed()) return
+    if (size(meta%shape_labels) /= size(meta%shape_digests)) then
+      call err%set(ERR_CHECKPOINT, str(size(meta%shape_digests))//' shape digests but '// &
+                   str(size(meta%shape_labels))//' shape labels')
+      return
+    end if
 
     call h5u_open_group(file_id, 'meta', group_id, err)
     call h5u_read_real_1d(group_id, 'frame_times', meta%frame_times, err)
@@ -284,7 +340,39 @@ contains
     bodies%w = w
     bodies%a = a
     bodies%alpha = alpha
+    ! Every bit of every row as written: a flipped bit or an edited value is damage.
+    if (rows_state_digest(bodies) /= meta%state_digest) then
+      call err%set(ERR_CHECKPOINT, 'its body data do not match the digest written with them (a changed bit '// &
+                   'on disk or an edited file): use an earlier checkpoint')
+    end if
   end subroutine read_contents
+
+  !> Strings as narrow as their longest (what is written is compact whatever the width
+  !> of the array held in memory).
+  function compact(lines) result(narrow)
+    character(len=*), intent(in) :: lines(:)
+    character(len=:), allocatable :: narrow(:)
+    integer :: i, width
+    width = 1
+    do i = 1, size(lines)
+      width = max(width, len_trim(lines(i)))
+    end do
+    allocate (character(len=width) :: narrow(size(lines)))
+    do i = 1, size(lines)
+      narrow(i) = lines(i)
+    end do
+  end function compact
+
+  !> Reads a list of strings into an array of the given width (longer ones are damage).
+  subroutine read_long_strings(group_id, name, width, lines, err)
+    integer(hid_t), intent(in) :: group_id
+    character(len=*), intent(in) :: name
+    integer, intent(in) :: width
+    character(len=width), allocatable, intent(out) :: lines(:)
+    type(error_t), intent(inout) :: err
+    call h5u_read_strings(group_id, name, lines, err)
+    if (err%failed() .and. .not. allocated(lines)) allocate (lines(0))
+  end subroutine read_long_strings
 
   subroutine agree(par, err, message)
     type(parallel_t), intent(in) :: par

@@ -1,0 +1,113 @@
+!> Which bodies a rank owns until the domain decomposition lands (docs/architecture.md):
+!> contiguous blocks of global ids, each rank integrating its own, is exact only when no
+!> two bodies can ever touch (each rank finds contacts among its own bodies alone). So a
+!> run on several ranks first asks whether any contact is possible at all before t_end:
+!> without one, every body flies free and the blocks are exact; with one, every body is
+!> given to rank 0, which then runs the scene exactly as one rank does (the other ranks
+!> take part in the collectives with no bodies), never a silently wrong answer.
+module ownership
+  use kinds, only: dp, i8
+  use shape, only: shape_library_t
+  use body_state, only: bodies_t
+  use sorting, only: sort_index_real
+  implicit none
+  private
+  public :: contact_possible, owned_block
+
+contains
+
+  !> Whether any two bodies (not both fixed) can come into contact between t0 and t_end
+  !> if every free body flies free: each body's centre follows x + v t + g t^2/2, so its
+  !> bounding sphere stays within the box of that parabola arc inflated by the radius;
+  !> boxes that never overlap are bodies that never touch (rotation does not move the
+  !> centre). Should no pair's boxes overlap, no contact ever changes a trajectory, so
+  !> the free flights are the run. Sort and sweep along x: O(n log n) plus the overlaps
+  !> (it stops at the first). bodies holds every body of the run.
+  logical function contact_possible(shapes, bodies, duration, gravity, pair) result(possible)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    real(dp), intent(in) :: duration      !< t_end - t0 [s]
+    real(dp), intent(in) :: gravity(3)    !< [m/s^2]
+    integer(i8), intent(out) :: pair(2)   !< global ids of the first pair found (if any)
+    real(dp), allocatable :: lower(:, :), upper(:, :), reach(:)
+    integer, allocatable :: order(:)
+    integer :: n, i, j, a, b, k
+    real(dp) :: r, t_turn, c
+    n = bodies%n_owned
+    possible = .false.
+    pair = 0
+    allocate (lower(3, n), upper(3, n), reach(n))
+    do i = 1, n
+      r = shapes%shapes(bodies%shape_id(i))%bounding_radius
+      reach(i) = r
+      lower(:, i) = bodies%x(:, i)
+      upper(:, i) = bodies%x(:, i)
+      if (.not. bodies%fixed(i)) then
+        do k = 1, 3
+          c = bodies%x(k, i) + bodies%v(k, i)*duration + 0.5_dp*gravity(k)*duration**2
+          lower(k, i) = min(lower(k, i), c)
+          upper(k, i) = max(upper(k, i), c)
+          if (gravity(k) /= 0.0_dp) then
+            t_turn = -bodies%v(k, i)/gravity(k)
+            if (t_turn > 0.0_dp .and. t_turn < duration) then
+              c = bodies%x(k, i) + bodies%v(k, i)*t_turn + 0.5_dp*gravity(k)*t_turn**2
+              lower(k, i) = min(lower(k, i), c)
+              upper(k, i) = max(upper(k, i), c)
+            end if
+          end if
+        end do
+      end if
+      ! (a relative margin for the round-off of the arc's end points)
+      r = r*(1.0_dp + 1.0e-9_dp) + 1.0e-9_dp*maxval(abs(upper(:, i)))
+      lower(:, i) = lower(:, i) - r
+      upper(:, i) = upper(:, i) + r
+    end do
+    call sort_index_real(lower(1, :), order)
+    do a = 1, n
+      i = order(a)
+      do b = a + 1, n
+        j = order(b)
+        if (lower(1, j) > upper(1, i)) exit
+        if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+        if (all(lower(:, j) <= upper(:, i)) .and. all(lower(:, i) <= upper(:, j))) then
+          ! Two free bodies under the same gravity move linearly relative to each other:
+          ! the closest approach of their centres over [0, duration] is exact.
+          if (.not. (bodies%fixed(i) .or. bodies%fixed(j))) then
+            if (closest_approach(bodies%x(:, j) - bodies%x(:, i), bodies%v(:, j) - bodies%v(:, i), duration) > &
+                (reach(i) + reach(j))*(1.0_dp + 1.0e-9_dp)) cycle
+          end if
+          possible = .true.
+          pair = [min(bodies%gid(i), bodies%gid(j)), max(bodies%gid(i), bodies%gid(j))]
+          return
+        end if
+      end do
+    end do
+  end function contact_possible
+
+  !> The smallest |d + u t| over 0 <= t <= duration [m].
+  pure real(dp) function closest_approach(d, u, duration) result(distance)
+    real(dp), intent(in) :: d(3), u(3), duration
+    real(dp) :: t
+    t = 0.0_dp
+    if (dot_product(u, u) > 0.0_dp) t = min(max(-dot_product(d, u)/dot_product(u, u), 0.0_dp), duration)
+    distance = norm2(d + u*t)
+  end function closest_approach
+
+  !> Global ids first..last owned by rank `rank` of `n_ranks`: contiguous blocks of nearly
+  !> equal size, or, when contacts are possible, every body on rank 0 (first > last
+  !> elsewhere: none).
+  pure subroutine owned_block(n_total, rank, n_ranks, contacts, first, last)
+    integer(i8), intent(in) :: n_total
+    integer, intent(in) :: rank, n_ranks
+    logical, intent(in) :: contacts
+    integer(i8), intent(out) :: first, last
+    if (contacts) then
+      first = 1
+      last = merge(n_total, 0_i8, rank == 0)
+    else
+      first = (n_total*rank)/n_ranks + 1
+      last = (n_total*(rank + 1))/n_ranks
+    end if
+  end subroutine owned_block
+
+end module ownership

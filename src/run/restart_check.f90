@@ -1,0 +1,314 @@
+!> What a restart checks before it touches any output (docs/output.md, "Restarting"):
+!>  - the checkpoint's state is sane: finite, unit quaternions, positive masses and moments,
+!>    within reach of the grid (a damaged file that slipped past the digest, or a state
+!>    that went bad before it was written);
+!>  - its bodies are the deck's bodies: the same shape (geometry digest), group, fixed
+!>    flag, mass and moments, body by body;
+!>  - its deck is the deck: every variable compared; output variables and t_end may change
+!>    (the continuation is then no longer bitwise the uninterrupted run), initial conditions
+!>    are ignored with a notice (the state comes from the checkpoint), any other change is
+!>    refused, naming the variable with its old and new value.
+!> Every message names the checkpoint. Bodies here are all bodies of the run (every rank
+!> holds them all while restarting), so every rank reaches the same verdict.
+module restart_check
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use kinds, only: dp, i8
+  use constants, only: line_length
+  use error_status, only: error_t, ERR_CHECKPOINT
+  use string_utils, only: str
+  use input_config, only: deck_t
+  use shape, only: shape_library_t
+  use body_state, only: bodies_t
+  use shape_digest, only: geometry_digest
+  use checkpoint_meta, only: checkpoint_meta_t
+  implicit none
+  private
+  public :: check_restored_state, check_same_bodies, compare_decks, deck_change_t
+
+  !> |q| of a stored orientation: normalised at every update, so it is 1 to a few ulps;
+  !> 1e-10 leaves room for any round-off and still catches a damaged component.
+  real(dp), parameter :: unit_tolerance = 1.0e-10_dp
+  !> Masses and moments are recomputed from the deck exactly as the first run did, so they
+  !> agree to the last bit; 1e-12 only forgives a rebuild with other optimisation flags.
+  real(dp), parameter :: property_rtol = 1.0e-12_dp
+  !> A position this many grid boxes from the origin cannot be placed in the grid (its
+  !> integer box coordinates are 64-bit; 2^50 keeps a wide margin).
+  real(dp), parameter :: max_boxes = 2.0_dp**50
+
+  integer, parameter :: class_refused = 0, class_allowed = 1, class_ignored = 2
+
+  !> What compare_decks found: changes it let through, as lines for the user.
+  type :: deck_change_t
+    integer :: n_allowed = 0                 !< t_end, output: the run continues, not bitwise
+    integer :: n_ignored = 0                 !< initial conditions: the checkpoint's state wins
+    character(len=:), allocatable :: notices(:)
+  end type deck_change_t
+
+contains
+
+  !> The restored state of every body is one a run can continue from.
+  subroutine check_restored_state(deck, bodies, box_size, path, err)
+    type(deck_t), intent(in) :: deck
+    type(bodies_t), intent(in) :: bodies
+    real(dp), intent(in) :: box_size      !< the grid's box edge [m]
+    character(len=*), intent(in) :: path
+    type(error_t), intent(inout) :: err
+    character(len=:), allocatable :: what
+    integer :: i
+    do i = 1, bodies%n_owned
+      what = ''
+      if (.not. all(ieee_is_finite(bodies%x(:, i)))) then
+        what = 'its position is not finite'
+      else if (.not. all(ieee_is_finite(bodies%q(:, i)))) then
+        what = 'its orientation is not finite'
+      else if (abs(norm2(bodies%q(:, i)) - 1.0_dp) > unit_tolerance) then
+        what = 'its orientation is not a unit quaternion (|q| - 1 = '//str(norm2(bodies%q(:, i)) - 1.0_dp, '(es9.2)')//')'
+      else if (.not. all(ieee_is_finite(bodies%v(:, i)))) then
+        what = 'its velocity is not finite'
+      else if (.not. all(ieee_is_finite(bodies%w(:, i)))) then
+        what = 'its angular velocity is not finite'
+      else if (.not. (all(ieee_is_finite(bodies%a(:, i))) .and. all(ieee_is_finite(bodies%alpha(:, i))))) then
+        what = 'its acceleration is not finite'
+      else if (any(abs(bodies%x(:, i)) > max_boxes*box_size)) then
+        what = 'its position '//str(maxval(abs(bodies%x(:, i))), '(es10.3)')//' m is beyond the grid ('// &
+               str(max_boxes*box_size, '(es10.3)')//' m)'
+      else if (bodies%fixed(i)) then
+        if (bodies%inv_mass(i) /= 0.0_dp .or. any(bodies%inv_inertia(:, i) /= 0.0_dp)) &
+          what = 'it is fixed but has a finite mass or moment of inertia'
+      else if (.not. (bodies%mass(i) > 0.0_dp .and. ieee_is_finite(bodies%mass(i)))) then
+        what = 'its mass '//str(bodies%mass(i), '(es10.3)')//' kg is not positive and finite'
+      else if (.not. (all(bodies%inertia(:, i) > 0.0_dp) .and. all(ieee_is_finite(bodies%inertia(:, i))))) then
+        what = 'its moments of inertia are not positive and finite'
+      else if (abs(bodies%inv_mass(i)*bodies%mass(i) - 1.0_dp) > property_rtol .or. &
+               any(abs(bodies%inv_inertia(:, i)*bodies%inertia(:, i) - 1.0_dp) > property_rtol)) then
+        what = 'its inverse mass or moments do not match its mass or moments'
+      end if
+      if (len(what) > 0) then
+        call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"' holds a state no run can continue from: "// &
+                     body_name(deck, bodies, i)//': '//what)
+        return
+      end if
+    end do
+  end subroutine check_restored_state
+
+  !> The checkpoint's bodies (saved) are the deck's (built, from the deck): the same shapes,
+  !> body by body the same shape, group, fixed flag, mass and moments.
+  subroutine check_same_bodies(deck, meta, saved, shapes, built, path, err)
+    type(deck_t), intent(in) :: deck
+    type(checkpoint_meta_t), intent(in) :: meta
+    type(bodies_t), intent(in) :: saved, built
+    type(shape_library_t), intent(in) :: shapes
+    character(len=*), intent(in) :: path
+    type(error_t), intent(inout) :: err
+    integer, allocatable :: row_of(:)
+    logical, allocatable :: shape_changed(:)
+    character(len=:), allocatable :: where, what
+    integer :: i, j, s
+    where = "checkpoint '"//trim(path)//"' was not written for this deck: "
+    if (size(meta%shape_digests) /= shapes%n_shapes) then
+      call err%set(ERR_CHECKPOINT, where//str(size(meta%shape_digests))//' distinct shapes in the checkpoint, '// &
+                   str(shapes%n_shapes)//' in the deck')
+      return
+    end if
+    allocate (shape_changed(shapes%n_shapes))
+    do s = 1, shapes%n_shapes
+      shape_changed(s) = meta%shape_digests(s) /= geometry_digest(shapes%shapes(s))
+    end do
+    ! Rows of the built bodies by global id (the checkpoint may hold them in any order).
+    allocate (row_of(built%n_owned))
+    row_of = 0
+    do i = 1, built%n_owned
+      if (built%gid(i) >= 1 .and. built%gid(i) <= built%n_owned) row_of(built%gid(i)) = i
+    end do
+    do j = 1, saved%n_owned
+      if (saved%gid(j) < 1 .or. saved%gid(j) > built%n_owned) then
+        call err%set(ERR_CHECKPOINT, where//'it holds body id '//str(saved%gid(j))//'; the deck has ids 1..'// &
+                     str(built%n_owned))
+        return
+      end if
+      i = row_of(saved%gid(j))
+      what = ''
+      if (saved%group_id(j) /= built%group_id(i)) then
+        what = 'it was made by &body #'//str(saved%group_id(j))//' in the checkpoint'
+      else if (saved%shape_id(j) /= built%shape_id(i)) then
+        what = 'its shape is shape '//str(saved%shape_id(j))//' in the checkpoint, shape '//str(built%shape_id(i))// &
+               ' in the deck'
+      else if (shape_changed(built%shape_id(i))) then
+        s = built%shape_id(i)
+        what = "its geometry differs: '"//trim(meta%shape_labels(s))//"' in the checkpoint, '"// &
+               shapes%shapes(s)%label//"' in the deck (nodes and faces after welding and scaling compared)"
+      else if (saved%fixed(j) .neqv. built%fixed(i)) then
+        what = 'it is '//merge('fixed', 'free ', saved%fixed(j))//' in the checkpoint, '// &
+               merge('fixed', 'free ', built%fixed(i))//' in the deck'
+      else if (.not. built%fixed(i) .and. differs(saved%mass(j), built%mass(i))) then
+        what = 'its mass is '//str(saved%mass(j), '(es23.16)')//' kg in the checkpoint, '// &
+               str(built%mass(i), '(es23.16)')//' kg in the deck'
+      else if (.not. built%fixed(i) .and. any([(differs(saved%inertia(s, j), built%inertia(s, i)), s=1, 3)])) then
+        what = 'its principal moments are '//triple(saved%inertia(:, j))//' kg m^2 in the checkpoint, '// &
+               triple(built%inertia(:, i))//' in the deck'
+      end if
+      if (len(what) > 0) then
+        call err%set(ERR_CHECKPOINT, where//body_name(deck, built, i)//': '//what)
+        return
+      end if
+    end do
+  end subroutine check_same_bodies
+
+  !> Compares the effective deck of the checkpoint (old) with the run's (new), variable by
+  !> variable. Refused changes end in err (every one named, old -> new); allowed and
+  !> ignored ones come back as notices.
+  subroutine compare_decks(old, new, path, changes, err)
+    character(len=*), intent(in) :: old(:), new(:)
+    character(len=*), intent(in) :: path
+    type(deck_change_t), intent(out) :: changes
+    type(error_t), intent(inout) :: err
+    character(len=line_length), allocatable :: old_keys(:), old_values(:), new_keys(:), new_values(:)
+    character(len=:), allocatable :: refused
+    character(len=line_length), allocatable :: notes(:)
+    integer :: i, j, n_notes, n_refused
+    call split_entries(old, old_keys, old_values)
+    call split_entries(new, new_keys, new_values)
+    allocate (notes(size(new_keys) + size(old_keys)))
+    n_notes = 0
+    n_refused = 0
+    refused = ''
+    do i = 1, size(new_keys)
+      j = find(old_keys, new_keys(i))
+      if (j == 0) then
+        n_notes = n_notes + 1
+        notes(n_notes) = describe_key(new_keys(i))//' = '//trim(new_values(i))// &
+                         ' is not recorded in the checkpoint (written by an older ricochet): taken from the deck'
+        changes%n_allowed = changes%n_allowed + 1
+        cycle
+      end if
+      if (old_values(j) == new_values(i)) cycle
+      select case (change_class(new_keys(i)))
+      case (class_allowed)
+        changes%n_allowed = changes%n_allowed + 1
+        n_notes = n_notes + 1
+        notes(n_notes) = describe_key(new_keys(i))//' changed from '//trim(old_values(j))//' to '// &
+                         trim(new_values(i))//' (allowed)'
+      case (class_ignored)
+        changes%n_ignored = changes%n_ignored + 1
+        n_notes = n_notes + 1
+        notes(n_notes) = describe_key(new_keys(i))//' changed from '//trim(old_values(j))//' to '// &
+                         trim(new_values(i))//': ignored, the state of the bodies comes from the checkpoint'
+      case default
+        n_refused = n_refused + 1
+        refused = refused//'; '//describe_key(new_keys(i))//' '//trim(old_values(j))//' -> '//trim(new_values(i))
+      end select
+    end do
+    do j = 1, size(old_keys)
+      if (find(new_keys, old_keys(j)) /= 0) cycle
+      if (change_class(old_keys(j)) == class_refused) then
+        n_refused = n_refused + 1
+        refused = refused//'; '//describe_key(old_keys(j))//' '//trim(old_values(j))//' -> (not in this deck)'
+      end if
+    end do
+    allocate (character(len=line_length) :: changes%notices(n_notes))
+    changes%notices = notes(1:n_notes)
+    if (n_refused > 0) then
+      call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"': the deck changed the physics of the run ("// &
+                   refused(3:)//'): a restart continues the run that wrote the checkpoint, so only t_end, '// &
+                   'wall_limit and &output variables may change (docs/output.md); start a new run to change '// &
+                   merge('these', 'this ', n_refused > 1))
+    end if
+  end subroutine compare_decks
+
+  !> How a change of a variable (key 'group|variable') is taken on restart.
+  pure integer function change_class(key) result(class)
+    character(len=*), intent(in) :: key
+    integer :: bar
+    bar = index(key, '|')
+    class = class_refused
+    associate (group => key(1:bar - 1), variable => trim(key(bar + 1:)))
+      if (group == '&output') then
+        class = class_allowed
+      else if (group == '&run') then
+        if (variable == 't_end' .or. variable == 'wall_limit') class = class_allowed
+      else if (group(1:min(len(group), 5)) == '&body') then
+        select case (variable)
+        case ('name')
+          class = class_allowed
+        case ('position', 'orientation', 'velocity', 'angular_velocity', 'seed', 'jitter_position', &
+              'jitter_angle', 'jitter_velocity', 'mesh_file')
+          ! mesh_file: its geometry is compared by digest (check_same_bodies), so a moved
+          ! deck or a copied file of the same mesh is no change
+          class = class_ignored
+        end select
+      end if
+    end associate
+  end function change_class
+
+  !> 'group|variable' keys and their values from effective deck lines ('&body #2' headers).
+  subroutine split_entries(lines, keys, values)
+    character(len=*), intent(in) :: lines(:)
+    character(len=line_length), allocatable, intent(out) :: keys(:), values(:)
+    character(len=line_length) :: group
+    integer :: i, n, eq
+    allocate (keys(size(lines)), values(size(lines)))
+    n = 0
+    group = ''
+    do i = 1, size(lines)
+      if (lines(i)(1:1) == '&') then
+        group = lines(i)
+        cycle
+      end if
+      if (lines(i)(1:1) == '/') cycle
+      eq = index(lines(i), '=')
+      if (eq == 0) cycle
+      n = n + 1
+      keys(n) = trim(group)//'|'//trim(adjustl(lines(i)(1:eq - 1)))
+      values(n) = adjustl(lines(i)(eq + 1:))
+    end do
+    keys = keys(1:n)
+    values = values(1:n)
+  end subroutine split_entries
+
+  pure integer function find(keys, key)
+    character(len=*), intent(in) :: keys(:), key
+    integer :: i
+    find = 0
+    do i = 1, size(keys)
+      if (keys(i) == key) then
+        find = i
+        return
+      end if
+    end do
+  end function find
+
+  !> 'group|variable' as the user reads it: '&contact restitution'.
+  function describe_key(key) result(text)
+    character(len=*), intent(in) :: key
+    character(len=:), allocatable :: text
+    integer :: bar
+    bar = index(key, '|')
+    text = key(1:bar - 1)//' '//trim(key(bar + 1:))
+  end function describe_key
+
+  pure logical function differs(a, b)
+    real(dp), intent(in) :: a, b
+    differs = .not. (abs(a - b) <= property_rtol*max(abs(a), abs(b)))
+  end function differs
+
+  function triple(v) result(text)
+    real(dp), intent(in) :: v(3)
+    character(len=:), allocatable :: text
+    text = str(v(1), '(es12.5)')//', '//str(v(2), '(es12.5)')//', '//str(v(3), '(es12.5)')
+  end function triple
+
+  function body_name(deck, bodies, i) result(text)
+    type(deck_t), intent(in) :: deck
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    character(len=:), allocatable :: text
+    integer :: k
+    k = bodies%group_id(i)
+    if (k >= 1 .and. k <= deck%n_bodies) then
+      text = 'body '//str(bodies%gid(i))//" ('"//trim(deck%bodies(k)%name)//"', &body #"//str(k)//')'
+    else
+      text = 'body '//str(bodies%gid(i))
+    end if
+  end function body_name
+
+end module restart_check
