@@ -2,7 +2,7 @@
 !> frame with the centre of mass at the origin. Shapes are shared: every copy of a body
 !> (a lattice of 10,000 cubes) points at one shape_t through its shape index.
 module shape
-  use kinds, only: dp
+  use kinds, only: dp, i8
   use mesh, only: mesh_t
   use skd_tree, only: skd_tree_t
   use quaternion, only: quat_identity
@@ -29,6 +29,8 @@ module shape
     logical :: convex = .true.               !< convex solid (spheres, boxes, ...): tighter contact bounds
     real(dp) :: aabb_lower(3) = 0.0_dp       !< bounds in the principal frame [m]
     real(dp) :: aabb_upper(3) = 0.0_dp
+    !> Digest of the geometry it was built from (shape_digest): restarts compare it
+    integer(i8) :: digest = 0
   end type shape_t
 
   !> All distinct shapes of a run. Bodies refer to them by index.

@@ -6,6 +6,7 @@ module shape_factory
   use mesh, only: mesh_t
   use shape, only: shape_t, SHAPE_SPHERE, SHAPE_MESH
   use error_status, only: error_t
+  use shape_digest, only: mesh_digest, sphere_digest
   use mass_properties, only: polyhedron_mass_properties
   use linear_algebra, only: symmetric_eigen
   use quaternion, only: quat_from_matrix, quat_to_matrix, quat_identity
@@ -24,6 +25,7 @@ contains
     s%kind = SHAPE_SPHERE
     s%label = 'sphere r='//str(radius)
     s%radius = radius
+    s%digest = sphere_digest(radius)
     s%volume = 4.0_dp/3.0_dp*pi*radius**3
     ! Solid sphere: I = 2/5 M r^2 about any axis through the centre; per unit density M = V.
     s%unit_inertia = 0.4_dp*radius**2*s%volume
@@ -48,6 +50,7 @@ contains
     real(dp) :: volume, centroid(3), inertia(3, 3), moments(3), axes(3, 3), rotation(3, 3)
     integer :: i
 
+    s%digest = mesh_digest(m)
     call polyhedron_mass_properties(m, volume, centroid, inertia, err)
     if (err%failed()) then
       call err%prefix('shape '''//label//''': ')

@@ -19,7 +19,6 @@ module restart_check
   use input_config, only: deck_t
   use shape, only: shape_library_t
   use body_state, only: bodies_t
-  use shape_digest, only: geometry_digest
   use checkpoint_meta, only: checkpoint_meta_t
   implicit none
   private
@@ -112,7 +111,7 @@ contains
     end if
     allocate (shape_changed(shapes%n_shapes))
     do s = 1, shapes%n_shapes
-      shape_changed(s) = meta%shape_digests(s) /= geometry_digest(shapes%shapes(s))
+      shape_changed(s) = meta%shape_digests(s) /= shapes%shapes(s)%digest
     end do
     ! Rows of the built bodies by global id (the checkpoint may hold them in any order).
     allocate (row_of(built%n_owned))
@@ -162,12 +161,13 @@ contains
     character(len=*), intent(in) :: path
     type(deck_change_t), intent(out) :: changes
     type(error_t), intent(inout) :: err
-    character(len=line_length), allocatable :: old_keys(:), old_values(:), new_keys(:), new_values(:)
+    character(len=line_length), allocatable :: old_keys(:), old_values(:), new_keys(:), new_values(:), &
+                                               old_shown(:), new_shown(:)
     character(len=:), allocatable :: refused
     character(len=line_length), allocatable :: notes(:)
     integer :: i, j, n_notes, n_refused
-    call split_entries(old, old_keys, old_values)
-    call split_entries(new, new_keys, new_values)
+    call split_entries(old, old_keys, old_values, old_shown)
+    call split_entries(new, new_keys, new_values, new_shown)
     allocate (notes(size(new_keys) + size(old_keys)))
     n_notes = 0
     n_refused = 0
@@ -176,7 +176,7 @@ contains
       j = find(old_keys, new_keys(i))
       if (j == 0) then
         n_notes = n_notes + 1
-        notes(n_notes) = describe_key(new_keys(i))//' = '//trim(new_values(i))// &
+        notes(n_notes) = trim(new_shown(i))//' = '//trim(new_values(i))// &
                          ' is not recorded in the checkpoint (written by an older ricochet): taken from the deck'
         changes%n_allowed = changes%n_allowed + 1
         cycle
@@ -186,23 +186,23 @@ contains
       case (class_allowed)
         changes%n_allowed = changes%n_allowed + 1
         n_notes = n_notes + 1
-        notes(n_notes) = describe_key(new_keys(i))//' changed from '//trim(old_values(j))//' to '// &
+        notes(n_notes) = trim(new_shown(i))//' changed from '//trim(old_values(j))//' to '// &
                          trim(new_values(i))//' (allowed)'
       case (class_ignored)
         changes%n_ignored = changes%n_ignored + 1
         n_notes = n_notes + 1
-        notes(n_notes) = describe_key(new_keys(i))//' changed from '//trim(old_values(j))//' to '// &
+        notes(n_notes) = trim(new_shown(i))//' changed from '//trim(old_values(j))//' to '// &
                          trim(new_values(i))//': ignored, the state of the bodies comes from the checkpoint'
       case default
         n_refused = n_refused + 1
-        refused = refused//'; '//describe_key(new_keys(i))//' '//trim(old_values(j))//' -> '//trim(new_values(i))
+        refused = refused//'; '//trim(new_shown(i))//' '//trim(old_values(j))//' -> '//trim(new_values(i))
       end select
     end do
     do j = 1, size(old_keys)
       if (find(new_keys, old_keys(j)) /= 0) cycle
       if (change_class(old_keys(j)) == class_refused) then
         n_refused = n_refused + 1
-        refused = refused//'; '//describe_key(old_keys(j))//' '//trim(old_values(j))//' -> (not in this deck)'
+        refused = refused//'; '//trim(old_shown(j))//' '//trim(old_values(j))//' -> (not in this deck)'
       end if
     end do
     allocate (character(len=line_length) :: changes%notices(n_notes))
@@ -218,40 +218,55 @@ contains
   !> How a change of a variable (key 'group|variable') is taken on restart.
   pure integer function change_class(key) result(class)
     character(len=*), intent(in) :: key
+    character(len=len(key)) :: group, variable
     integer :: bar
     bar = index(key, '|')
+    group = key(1:bar - 1)
+    variable = key(bar + 1:)
     class = class_refused
-    associate (group => key(1:bar - 1), variable => trim(key(bar + 1:)))
-      if (group == '&output') then
+    if (group == '&output') then
+      class = class_allowed
+    else if (group == '&run') then
+      if (variable == 't_end' .or. variable == 'wall_limit') class = class_allowed
+    else if (group(1:5) == '&body') then
+      select case (variable)
+      case ('name')
         class = class_allowed
-      else if (group == '&run') then
-        if (variable == 't_end' .or. variable == 'wall_limit') class = class_allowed
-      else if (group(1:min(len(group), 5)) == '&body') then
-        select case (variable)
-        case ('name')
-          class = class_allowed
-        case ('position', 'orientation', 'velocity', 'angular_velocity', 'seed', 'jitter_position', &
-              'jitter_angle', 'jitter_velocity', 'mesh_file')
-          ! mesh_file: its geometry is compared by digest (check_same_bodies), so a moved
-          ! deck or a copied file of the same mesh is no change
-          class = class_ignored
-        end select
-      end if
-    end associate
+      case ('position', 'orientation', 'velocity', 'angular_velocity', 'seed', 'jitter_position', &
+            'jitter_angle', 'jitter_velocity', 'mesh_file')
+        ! mesh_file: its geometry is compared by digest (check_same_bodies), so a moved
+        ! deck or a copied file of the same mesh is no change
+        class = class_ignored
+      end select
+    end if
   end function change_class
 
-  !> 'group|variable' keys and their values from effective deck lines ('&body #2' headers).
-  subroutine split_entries(lines, keys, values)
+  !> 'group|variable' keys and their values from effective deck lines ('&body #2' headers),
+  !> and how each is shown to the user ("&body #2 'crate' size").
+  subroutine split_entries(lines, keys, values, shown)
     character(len=*), intent(in) :: lines(:)
-    character(len=line_length), allocatable, intent(out) :: keys(:), values(:)
-    character(len=line_length) :: group
-    integer :: i, n, eq
-    allocate (keys(size(lines)), values(size(lines)))
+    character(len=line_length), allocatable, intent(out) :: keys(:), values(:), shown(:)
+    character(len=line_length) :: group, label
+    integer :: i, n, eq, k
+    allocate (keys(size(lines)), values(size(lines)), shown(size(lines)))
     n = 0
     group = ''
+    label = ''
     do i = 1, size(lines)
       if (lines(i)(1:1) == '&') then
         group = lines(i)
+        label = group
+        ! a body group is shown with its name (the line "name = '...'" inside it)
+        do k = i + 1, size(lines)
+          if (lines(k)(1:1) == '/') exit
+          eq = index(lines(k), '=')
+          if (eq > 0) then
+            if (adjustl(lines(k)(1:eq - 1)) == 'name') then
+              label = trim(group)//' '//trim(adjustl(lines(k)(eq + 1:)))
+              exit
+            end if
+          end if
+        end do
         cycle
       end if
       if (lines(i)(1:1) == '/') cycle
@@ -260,9 +275,11 @@ contains
       n = n + 1
       keys(n) = trim(group)//'|'//trim(adjustl(lines(i)(1:eq - 1)))
       values(n) = adjustl(lines(i)(eq + 1:))
+      shown(n) = trim(label)//' '//trim(adjustl(lines(i)(1:eq - 1)))
     end do
     keys = keys(1:n)
     values = values(1:n)
+    shown = shown(1:n)
   end subroutine split_entries
 
   pure integer function find(keys, key)
@@ -276,15 +293,6 @@ contains
       end if
     end do
   end function find
-
-  !> 'group|variable' as the user reads it: '&contact restitution'.
-  function describe_key(key) result(text)
-    character(len=*), intent(in) :: key
-    character(len=:), allocatable :: text
-    integer :: bar
-    bar = index(key, '|')
-    text = key(1:bar - 1)//' '//trim(key(bar + 1:))
-  end function describe_key
 
   pure logical function differs(a, b)
     real(dp), intent(in) :: a, b

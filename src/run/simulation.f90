@@ -14,7 +14,6 @@ module simulation
   use body_builder, only: build_shapes, build_bodies, count_bodies
   use ownership, only: contact_possible, owned_block
   use restart_check, only: check_restored_state, check_same_bodies, compare_decks, deck_change_t
-  use shape_digest, only: geometry_digest
   use deck_reader, only: effective_deck_lines
   use conservation, only: system_totals_t, compute_totals
   use overlap_check, only: check_initial_overlaps
@@ -213,8 +212,8 @@ contains
     call read_checkpoint(par, path, meta, saved, err)
     if (err%failed()) return
     if (.not. (meta%time < self%deck%run%t_end)) then
-      call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"' is at t = "//str(meta%time)// &
-                   ' s, not before &run t_end = '//str(self%deck%run%t_end)//' s of '//self%deck%path// &
+      call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"' is at t = "//str(meta%time, '(es10.3)')// &
+                   ' s, not before &run t_end = '//str(self%deck%run%t_end, '(es10.3)')//' s of '//self%deck%path// &
                    ': nothing left to run (raise t_end to continue the run)')
       return
     end if
@@ -624,7 +623,7 @@ contains
     meta%checksum = bodies_checksum(par, self%bodies)
     allocate (meta%shape_digests(self%shapes%n_shapes), meta%shape_labels(self%shapes%n_shapes))
     do k = 1, self%shapes%n_shapes
-      meta%shape_digests(k) = geometry_digest(self%shapes%shapes(k))
+      meta%shape_digests(k) = self%shapes%shapes(k)%digest
       meta%shape_labels(k) = self%shapes%shapes(k)%label
     end do
     call effective_deck_lines(self%deck, meta%deck_lines)

@@ -32,6 +32,8 @@ if(RICOCHET_USE_HDF5)
                        ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise)
   ricochet_python_case(restart_bitwise_pile check_restart.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/restart_pile.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise_pile)
+  ricochet_python_case(restart_refusals check_restart_refusals.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_refusals ${PROJECT_SOURCE_DIR}/tests/data/meshes)
   ricochet_python_case(restart_bitwise_newmark check_restart.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise_newmark newmark)
   ricochet_python_case(bouncing_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
