@@ -9,6 +9,7 @@ program ricochet
   use input_config, only: deck_t
   use deck_reader, only: read_deck, write_effective_deck
   use simulation, only: simulation_t
+  use startup_report, only: check_deck
   implicit none
 
   type(parallel_t) :: par
@@ -16,6 +17,8 @@ program ricochet
   type(deck_t) :: deck
   type(simulation_t) :: sim
   character(len=:), allocatable :: deck_path, restart_path, mode, output_override
+  character(len=4096) :: line
+  integer :: report, status
 
   call par%init()
   call parse_command_line(mode, deck_path, restart_path, output_override, err)
@@ -30,8 +33,19 @@ program ricochet
     call read_deck(deck_path, deck, err)
     if (err%failed()) call fail(par, err)
     if (par%is_root()) then
+      ! Every start-up check of a run first; "valid" only once they all passed.
+      open (newunit=report, status='scratch', action='readwrite', form='formatted')
+      call check_deck(deck, report, err)
+      if (err%failed()) call fail(par, err)
       write (output_unit, '(a)') '! '//deck_path//': valid. Effective input, every default filled in:'
       call write_effective_deck(deck, output_unit)
+      rewind (report)
+      do
+        read (report, '(a)', iostat=status) line
+        if (status /= 0) exit
+        write (output_unit, '(a)') trim(line)
+      end do
+      close (report)
     end if
   case ('output-dir')
     call read_deck(deck_path, deck, err)
@@ -128,7 +142,8 @@ contains
     integer, intent(in) :: unit
     write (unit, '(a)') 'usage: ricochet DECK                  run the deck', &
       '       ricochet DECK --restart FILE    continue from a checkpoint of the same deck', &
-      '       ricochet --check DECK          validate and print the effective input', &
+      '       ricochet --check DECK          every start-up check without running: the effective input, '// &
+      'the bodies (volume, mass, moments, axes), the smallest initial gap', &
       '       ricochet DECK --output-dir DIR  write output to DIR instead of the deck''s &output dir', &
       '       ricochet --print-output-dir DECK', &
       '       mpiexec -n N ricochet DECK     the same on N ranks', &

@@ -28,7 +28,7 @@ module simulation
   use event_log_writer, only: write_event_log
   implicit none
   private
-  public :: simulation_t
+  public :: simulation_t, choose_event_loop
 
   !> A step that would leave less than this fraction of dt_max before an output or
   !> checkpoint time is stretched to land on it: no sliver steps.
@@ -141,20 +141,8 @@ contains
     if (err%failed()) return
 
     self%collisions%log_events = deck%output%event_log
-    ! The event loop: local (default with exact rotation) or global steps.
-    select case (trim(deck%integrator%events))
-    case (EVENTS_LOCAL)
-      if (deck%integrator%rotation /= ROTATION_EXACT) then
-        call err%set(ERR_INPUT, deck%path//": &integrator: events = 'local' needs rotation = 'exact' (bodies are "// &
-                     "evaluated from their anchors); use events = 'global' with rotation = 'newmark'")
-        return
-      end if
-      self%local = .true.
-    case (EVENTS_GLOBAL)
-      self%local = .false.
-    case default
-      self%local = deck%integrator%rotation == ROTATION_EXACT
-    end select
+    call choose_event_loop(deck, self%local, err)
+    if (err%failed()) return
     if (deck%output%checkpoint_interval > 0.0_dp) then
       self%next_checkpoint = deck%output%checkpoint_interval
     end if
@@ -190,6 +178,25 @@ contains
                                           deck%run%gravity, deck%integrator, self%time, deck%run%dt_max, &
                                           min(deck%run%t_end, self%next_checkpoint), err)
   end subroutine simulation_init
+
+  !> The event loop a deck asks for: local (default with exact rotation) or global steps.
+  subroutine choose_event_loop(deck, local, err)
+    type(deck_t), intent(in) :: deck
+    logical, intent(out) :: local
+    type(error_t), intent(inout) :: err
+    select case (trim(deck%integrator%events))
+    case (EVENTS_LOCAL)
+      local = .true.
+      if (deck%integrator%rotation /= ROTATION_EXACT) then
+        call err%set(ERR_INPUT, deck%path//": &integrator: events = 'local' needs rotation = 'exact' (bodies are "// &
+                     "evaluated from their anchors); use events = 'global' with rotation = 'newmark'")
+      end if
+    case (EVENTS_GLOBAL)
+      local = .false.
+    case default
+      local = deck%integrator%rotation == ROTATION_EXACT
+    end select
+  end subroutine choose_event_loop
 
   !> Reads a checkpoint and checks, before any output is touched, that this run can
   !> continue from it (restart_check): it is intact (digest), not at or past t_end, made

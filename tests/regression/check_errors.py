@@ -84,4 +84,32 @@ c.check(re.search(r"^\s*events\s*= 'auto'$", proc.stdout, re.M) is not None,
 effective = deck("effective.nml", proc.stdout)
 proc = subprocess.run([exe, "--check", effective], capture_output=True, text=True, cwd=work)
 c.check(proc.returncode == 0, f"the effective deck is itself a valid deck: {proc.stderr.strip()}")
+# --check runs every start-up check of a run (issue: it used to say "valid" for an open
+# mesh, a truncated STL and overlapping bodies).
+open_deck = deck("open.nml", good_run + f"&body name = 'bunny', shape = 'mesh', mesh_file = '{data}/meshes/stanford-bunny.obj', mass = 1.0 /\n")
+expect_error(["--check", open_deck], ["stanford-bunny.obj", "open", "&body #1 'bunny'"], "--check: open mesh")
+import struct
+with open(os.path.join(work, "truncated.stl"), "wb") as f:
+    f.write(b"\0" * 80 + struct.pack("<I", 12) + b"\0" * (50 * 5))   # 12 triangles announced, 5 present
+expect_error(["--check", deck("stl.nml", good_run + "&body name = 'part', shape = 'mesh', mesh_file = 'truncated.stl', mass = 1.0 /\n")],
+             ["truncated.stl", "&body #1 'part'"], "--check: truncated STL")
+expect_error(["--check", deck("overlap.nml", good_run + "&body name = 'a', shape = 'sphere', radius = 1.0, mass = 1.0 /\n"
+                              "&body name = 'b', shape = 'box', size = 1.0, 1.0, 1.0, mass = 1.0, position = 1.2, 0.0, 0.0 /\n")],
+             ["'a'", "'b'", "overlap at the start"], "--check: overlapping bodies")
+proc = subprocess.run([exe, "--check", deck("report.nml", good_run +
+                       "&body name = 'ball', shape = 'sphere', radius = 0.5, mass = 2.0 /\n"
+                       "&body name = 'crate', shape = 'box', size = 1.0, 2.0, 3.0, mass = 6.0, position = 2.0, 0.0, 0.0 /\n")],
+                      capture_output=True, text=True, cwd=work)
+c.check(proc.returncode == 0, f"--check report deck: {proc.stderr}")
+out = proc.stdout
+c.check("start-up checks passed" in out and "valid" in out, "--check says which checks passed")
+# ball: mass 2, I = 2/5 m r^2 = 0.2; crate 1 x 2 x 3 of mass 6: I = m (b^2 + c^2)/12 = 6.5, 5, 2.5 (ascending 2.5, 5, 6.5)
+c.check("mass 2.00000E+00 kg" in out and "principal moments 2.0000E-01 2.0000E-01 2.0000E-01" in out,
+        f"--check: the ball's mass and moments: {out[-1500:]}")
+c.check("principal moments 2.5000E+00 5.0000E+00 6.5000E+00" in out, "--check: the crate's principal moments (ascending)")
+c.check("volume 6.00000E+00 m^3" in out, "--check: the crate's volume")
+# gap: centre distance 2 minus radius 0.5 minus half width 0.5 = 1.0 m, between the two
+c.check("smallest initial gap 1.000E+00 m, between body 1 'ball' (&body #1) and body 2 'crate' (&body #2)" in out,
+        "--check: the smallest initial gap and its pair")
+
 c.finish()
