@@ -3,13 +3,13 @@
 !> leave as one line on stderr and a non-zero exit code.
 program ricochet
   use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
-  use error_status, only: error_t, ERR_INPUT, ERR_MESH, ERR_CHECKPOINT
+  use error_status, only: error_t, ERR_INPUT, ERR_MESH, ERR_CHECKPOINT, ERR_IO
   use parallel_env, only: parallel_t
   use string_utils, only: join_path, str
   use input_config, only: deck_t
   use deck_reader, only: read_deck, write_effective_deck
   use simulation, only: simulation_t
-  use stop_request, only: install_stop_handlers
+  use stop_request, only: install_stop_handlers, exit_now
   implicit none
 
   type(parallel_t) :: par
@@ -176,6 +176,10 @@ contains
     end if
     flush (error_unit)
     if (par%n_ranks > 1) call par%abort(err%code)
+    ! After a failed write HDF5 1.10 crashes in its shutdown (run by MPI_Finalize) on the
+    ! file it could not close: leave without it, the error is said and stdout flushed.
+    flush (output_unit)
+    if (err%code == ERR_IO) call exit_now(err%code)
     call par%free()
     stop err%code, quiet = .true.
   end subroutine fail

@@ -6,7 +6,7 @@ module stop_request
   use error_status, only: error_t, ERR_INTERNAL
   implicit none
   private
-  public :: install_stop_handlers, stop_signal_received, signal_name
+  public :: install_stop_handlers, stop_signal_received, signal_name, exit_now
 
   integer, parameter, public :: SIGNAL_INT = 2    !< POSIX SIGINT (Ctrl-C)
   integer, parameter, public :: SIGNAL_TERM = 15  !< POSIX SIGTERM (schedulers, kill)
@@ -18,6 +18,10 @@ module stop_request
     integer(c_int) function c_stop_signal() bind(C, name='ricochet_stop_signal')
       import :: c_int
     end function c_stop_signal
+    subroutine c_exit_now(code) bind(C, name='ricochet_exit_now')
+      import :: c_int
+      integer(c_int), value :: code
+    end subroutine c_exit_now
   end interface
 
 contains
@@ -34,6 +38,13 @@ contains
   integer function stop_signal_received()
     stop_signal_received = int(c_stop_signal())
   end function stop_signal_received
+
+  !> Ends the process with `code` without any clean-up (no MPI_Finalize, no HDF5 shutdown):
+  !> the driver's way out after an I/O error, when HDF5's shutdown may crash (stop_signals.c).
+  subroutine exit_now(code)
+    integer, intent(in) :: code
+    call c_exit_now(int(code, c_int))
+  end subroutine exit_now
 
   pure function signal_name(number) result(name)
     integer, intent(in) :: number
