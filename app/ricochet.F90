@@ -3,13 +3,14 @@
 !> leave as one line on stderr and a non-zero exit code.
 program ricochet
   use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
-  use error_status, only: error_t, ERR_INPUT, ERR_MESH, ERR_CHECKPOINT
+  use error_status, only: error_t, ERR_INPUT, ERR_MESH, ERR_CHECKPOINT, ERR_IO
   use parallel_env, only: parallel_t
-  use string_utils, only: join_path
+  use string_utils, only: join_path, str
   use input_config, only: deck_t
   use deck_reader, only: read_deck, write_effective_deck
   use simulation, only: simulation_t
   use startup_report, only: check_deck
+  use stop_request, only: install_stop_handlers, exit_now
   implicit none
 
   type(parallel_t) :: par
@@ -52,16 +53,21 @@ program ricochet
     if (err%failed()) call fail(par, err)
     if (par%is_root()) write (output_unit, '(a)') output_dir_of(deck, output_override)
   case ('run')
+    ! SIGTERM/SIGINT from here on stop the run cleanly with a checkpoint (docs/output.md).
+    call install_stop_handlers(err)
+    if (err%failed()) call fail(par, err)
     call read_deck(deck_path, deck, err)
     if (err%failed()) call fail(par, err)
     if (par%is_root()) then
       write (output_unit, '(a)') 'ricochet '//RICOCHET_VERSION//': '//trim(deck%run%title)//' ('//deck_path//')'
       if (len(restart_path) > 0) write (output_unit, '(a)') '  restarting from '//restart_path
+      flush (output_unit)   ! stdout is block-buffered when redirected: keep the log whole
     end if
     call sim%init(par, deck, output_dir_of(deck, output_override), restart_path, err)
     if (err%failed()) call fail(par, err)
     call sim%run(par, err)
     if (err%failed()) call fail(par, err)
+    if (sim%stop_code /= 0) call stop_early(par, sim, deck_path, output_override)
     call sim%summary(par)
     call sim%free()
   end select
@@ -150,6 +156,27 @@ contains
       'Decks are Fortran namelist files: see docs/input.md.'
   end subroutine print_usage
 
+  !> The way out of a run stopped before t_end (signal or &run wall_limit), checkpoint
+  !> written: one line saying why, when, where the checkpoint is and how to go on, then
+  !> exit status 128 + signal (143 SIGTERM, 130 SIGINT) or 75 (wall_limit) on every rank.
+  subroutine stop_early(par, sim, deck_path, output_override)
+    type(parallel_t), intent(inout) :: par
+    type(simulation_t), intent(in) :: sim
+    character(len=*), intent(in) :: deck_path, output_override
+    character(len=:), allocatable :: again
+    integer :: code
+    if (par%is_root()) then
+      again = 'ricochet '//deck_path//' --restart '//sim%stop_checkpoint
+      if (len(output_override) > 0) again = again//' --output-dir '//output_override
+      write (output_unit, '(a)') 'ricochet: '//sim%stop_reason//' at t = '//str(sim%time, '(g0.10)')// &
+        ' s (step '//str(sim%step)//'): checkpoint written to '//sim%stop_checkpoint//'; continue with: '//again
+      flush (output_unit)
+    end if
+    code = sim%stop_code
+    call par%free()
+    stop code, quiet = .true.
+  end subroutine stop_early
+
   !> The one way out on error: one line on stderr (from rank 0), then a non-zero exit on
   !> every rank (collective abort when there are several).
   subroutine fail(par, err)
@@ -164,6 +191,10 @@ contains
     end if
     flush (error_unit)
     if (par%n_ranks > 1) call par%abort(err%code)
+    ! After a failed write HDF5 1.10 crashes in its shutdown (run by MPI_Finalize) on the
+    ! file it could not close: leave without it, the error is said and stdout flushed.
+    flush (output_unit)
+    if (err%code == ERR_IO) call exit_now(err%code)
     call par%free()
     stop err%code, quiet = .true.
   end subroutine fail

@@ -21,6 +21,8 @@ module input_config
     real(dp) :: t_end = -1.0_dp              !< [s] required, > 0
     real(dp) :: dt_max = -1.0_dp             !< [s] required, > 0
     real(dp) :: gravity(3) = 0.0_dp          !< [m/s^2]
+    !> [s] wall time of this run after which it writes a checkpoint and stops (0: no limit)
+    real(dp) :: wall_limit = 0.0_dp
   end type run_config_t
 
   type :: integrator_config_t

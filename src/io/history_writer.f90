@@ -9,10 +9,11 @@
 !> every double exactly.
 module history_writer
   use kinds, only: dp, i8
-  use error_status, only: error_t, ERR_IO
+  use error_status, only: error_t, ERR_IO, ERR_INTERNAL
   use string_utils, only: dirname
   use parallel_env, only: parallel_t
-  use file_system, only: make_directory, rename_file, file_exists
+  use file_system, only: make_directory, rename_file, remove_file, file_exists, stream_t, stream_open, &
+                         stream_write, stream_close
   implicit none
   private
   public :: history_record_t, history_writer_t, history_fresh_start, history_header
@@ -51,7 +52,8 @@ module history_writer
 
   type :: history_writer_t
     character(len=:), allocatable :: path
-    integer :: unit = 0                           !< newunit numbers are negative: see is_open
+    !> C stdio, not a Fortran unit: gfortran does not report a row lost to a full disk
+    type(stream_t) :: stream
     logical :: is_open = .false.                  !< only ever on rank 0
   contains
     procedure :: init => history_init
@@ -83,27 +85,30 @@ contains
     type(error_t), intent(inout) :: err
     character(len=line_length) :: line
     character(len=:), allocatable :: temporary
-    integer :: in_unit, out_unit, status, n_columns
+    type(stream_t) :: out
+    type(error_t) :: ignored
+    integer :: in_unit, status, n_columns
     real(dp) :: row_time
     logical :: first
 
     call make_directory(dirname(self%path), err)
     if (err%failed()) return
     temporary = self%path//'.tmp'
-    open (newunit=out_unit, file=temporary, status='replace', action='write', form='formatted', &
-          iostat=status)
-    if (status /= 0) then
-      call err%set(ERR_IO, "cannot create '"//temporary//"'")
+    call stream_open(temporary, 'w', out, err)
+    call stream_write(out, history_header, err, line=.true.)
+    if (err%failed()) then
+      call stream_close(out, err)
+      call remove_file(temporary, ignored)
       return
     end if
-    write (out_unit, '(a)') history_header
     n_columns = count_columns(history_header)
 
     if (restart_time > history_fresh_start .and. file_exists(self%path)) then
       open (newunit=in_unit, file=self%path, status='old', action='read', form='formatted', iostat=status)
       if (status /= 0) then
         call err%set(ERR_IO, "history file '"//self%path//"' exists but cannot be read")
-        close (out_unit, status='delete')
+        call stream_close(out, err)
+        call remove_file(temporary, ignored)
         return
       end if
       first = .true.
@@ -116,7 +121,8 @@ contains
             call err%set(ERR_IO, "history file '"//self%path//"' has other columns than this version "// &
                          "of ricochet writes; move it away to restart")
             close (in_unit)
-            close (out_unit, status='delete')
+            call stream_close(out, err)
+            call remove_file(temporary, ignored)
             return
           end if
           cycle
@@ -125,20 +131,21 @@ contains
         if (count_columns(line) /= n_columns) cycle
         read (line, *, iostat=status) row_time
         if (status /= 0) cycle
-        if (row_time <= restart_time) write (out_unit, '(a)') trim(line)
+        if (row_time <= restart_time) call stream_write(out, trim(line), err, line=.true.)
+        if (err%failed()) exit
       end do
       close (in_unit)
     end if
-    close (out_unit)
+    call stream_close(out, err)
+    if (err%failed()) then
+      ! the old history.csv stays as it was
+      call remove_file(temporary, ignored)
+      return
+    end if
     call rename_file(temporary, self%path, err)
     if (err%failed()) return
-    open (newunit=self%unit, file=self%path, status='old', position='append', action='write', &
-          form='formatted', iostat=status)
-    if (status /= 0) then
-      call err%set(ERR_IO, "cannot open '"//self%path//"' for appending")
-    else
-      self%is_open = .true.
-    end if
+    call stream_open(self%path, 'a', self%stream, err)
+    self%is_open = err%ok()
   end subroutine init_on_root
 
   !> Appends one row and flushes it (collective so that every rank sees an error).
@@ -147,18 +154,24 @@ contains
     type(parallel_t), intent(in) :: par
     type(history_record_t), intent(in) :: rec
     type(error_t), intent(inout) :: err
+    character(len=line_length) :: row
     integer :: status
     if (par%is_root()) then
       if (.not. self%is_open) then
         call err%set(ERR_IO, 'history file written before it was opened')
       else
-        write (self%unit, row_format, iostat=status) rec%time, rec%dt, rec%steps, rec%kinetic_translational, &
+        write (row, row_format, iostat=status) rec%time, rec%dt, rec%steps, rec%kinetic_translational, &
           rec%kinetic_rotational, rec%potential, &
           rec%kinetic_translational + rec%kinetic_rotational + rec%potential, &
           rec%momentum, rec%angular_momentum, rec%wall_time, rec%events, rec%contacts, &
           rec%advancement_iterations, rec%min_separation, rec%asleep
-        if (status == 0) flush (self%unit, iostat=status)
-        if (status /= 0) call err%set(ERR_IO, "cannot write to history file '"//self%path//"'")
+        if (status /= 0) then
+          call err%set(ERR_INTERNAL, "history file '"//self%path//"': a row does not fit its format")
+        else
+          ! A row cut short here (full disk) is dropped by a restart, as after a crash.
+          call stream_write(self%stream, trim(row), err, line=.true.)
+          if (err%failed()) call err%prefix('history: ')
+        end if
       end if
     end if
     call agree(par, err, 'history file: failed on rank 0')
@@ -166,7 +179,8 @@ contains
 
   subroutine history_free(self)
     class(history_writer_t), intent(inout) :: self
-    if (self%is_open) close (self%unit)
+    type(error_t) :: ignored
+    if (self%is_open) call stream_close(self%stream, ignored)
     self%is_open = .false.
     if (allocated(self%path)) deallocate (self%path)
   end subroutine history_free

@@ -26,6 +26,7 @@ module simulation
   use checkpoint_meta, only: checkpoint_meta_t, bodies_checksum
   use checkpoint_io, only: write_checkpoint, read_checkpoint, check_checkpoint_matches
   use event_log_writer, only: write_event_log
+  use stop_request, only: stop_signal_received, signal_name
   implicit none
   private
   public :: simulation_t, choose_event_loop
@@ -33,6 +34,9 @@ module simulation
   !> A step that would leave less than this fraction of dt_max before an output or
   !> checkpoint time is stretched to land on it: no sliver steps.
   real(dp), parameter :: sliver_fraction = 1.0e-6_dp
+  !> Exit status of a run stopped by &run wall_limit: 75, EX_TEMPFAIL of sysexits.h ("try
+  !> again": restart me), distinct from the error codes (1-7) and from 128 + a signal.
+  integer, parameter, public :: exit_wall_limit = 75
 
   type :: simulation_t
     type(deck_t) :: deck
@@ -69,6 +73,11 @@ module simulation
     type(event_loop_t) :: events              !< the local event loop (local = .true.)
     logical :: local = .false.                !< events = 'local': the local loop, not global steps
     logical :: restarted = .false.
+    !> Why the run stopped before t_end (run_stopped): 0 it did not, 128 + the signal number
+    !> for SIGTERM/SIGINT (143, 130: what shells and schedulers report for a signal), or
+    !> exit_wall_limit; stop_reason and stop_checkpoint say why and where it can go on from.
+    integer :: stop_code = 0
+    character(len=:), allocatable :: stop_reason, stop_checkpoint
   contains
     procedure :: init => simulation_init
     procedure :: run => simulation_run
@@ -420,6 +429,9 @@ contains
       call write_due_outputs(self, par, t_end, checkpointed, err)
       if (err%failed()) return
       call progress(self, par)
+      ! every step end: every rank is here, all bodies at self%time
+      call stop_if_requested(self, par, err)
+      if (self%stop_code /= 0 .or. err%failed()) return
     end do
     call self%write_checkpoint_now(par, 'checkpoint_final', err)
     if (err%ok()) call write_events(self, par, err)
@@ -462,10 +474,46 @@ contains
         if (err%failed()) return
       end if
       call progress(self, par)
+      ! Window ends only (not inside run_until): here every rank is, every body is evaluated
+      ! at self%time, and a checkpoint is exactly what a scheduled one would be.
+      call stop_if_requested(self, par, err)
+      if (self%stop_code /= 0 .or. err%failed()) return
     end do
     call self%write_checkpoint_now(par, 'checkpoint_final', err)
     if (err%ok()) call write_events(self, par, err)
   end subroutine run_local
+
+  !> At a point every rank reaches, with every body at self%time: stops the run when some
+  !> rank received SIGTERM or SIGINT or this run's wall time reached &run wall_limit (one
+  !> collective for both), after writing checkpoint_signal.h5 or checkpoint_wall_limit.h5
+  !> and the event log. Sets stop_code, stop_reason, stop_checkpoint; the driver says it.
+  subroutine stop_if_requested(self, par, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    type(error_t), intent(inout) :: err
+    integer :: reason
+    character(len=:), allocatable :: name
+    if (self%time >= self%deck%run%t_end) return    ! done anyway: the normal end follows
+    ! Signal numbers (2, 15) outrank the wall limit (1): a signal usually means SIGKILL soon.
+    reason = stop_signal_received()
+    if (reason == 0 .and. self%deck%run%wall_limit > 0.0_dp) then
+      if (par%wtime() - self%wall_start >= self%deck%run%wall_limit) reason = 1
+    end if
+    reason = par%max(reason)
+    if (reason == 0) return
+    if (reason == 1) then
+      name = 'checkpoint_wall_limit'
+      self%stop_code = exit_wall_limit
+      self%stop_reason = 'wall_limit = '//str(self%deck%run%wall_limit, '(g0.6)')//' s reached'
+    else
+      name = 'checkpoint_signal'
+      self%stop_code = 128 + reason
+      self%stop_reason = 'stopped by '//signal_name(reason)
+    end if
+    call self%write_checkpoint_now(par, name, err)
+    if (err%ok()) call write_events(self, par, err)
+    self%stop_checkpoint = join_path(self%output_dir, name//'.h5')
+  end subroutine stop_if_requested
 
   !> What is due at self%time, in both loops: a history row (at each history multiple,
   !> output time and the end), a frame (output times and the end), a checkpoint (its
@@ -657,6 +705,7 @@ contains
     left = (self%deck%run%t_end - self%time)/max(rate, tiny(1.0_dp))
     write (*, '(a,es11.4,a,es11.4,a,i0,a,es10.3,a,f0.1,a)') '  t = ', self%time, ' / ', self%deck%run%t_end, &
       ' s   steps ', self%step, '   ', rate, ' sim s per wall s   about ', left, ' s left'
+    flush (output_unit)   ! a job killed later keeps its log up to here
   end subroutine progress
 
   subroutine simulation_summary(self, par)

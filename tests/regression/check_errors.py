@@ -39,6 +39,9 @@ expect_error([deck("typo.nml", good_run + "&body name = 'ball', shape = 'sphere'
              ["typo.nml:2", "&body #1 'ball'", "radus"], "unknown variable")
 expect_error([deck("nan.nml", "&run t_end = nan, dt_max = 0.1 /\n&body shape = 'sphere', radius = 1, mass = 1 /\n")],
              ["nan.nml:1", "&run", "t_end"], "NaN")
+expect_error([deck("wall_limit.nml", "&run t_end = 1.0,\n dt_max = 0.1, wall_limit = -5 /\n"
+                   "&body shape = 'sphere', radius = 1, mass = 1 /\n")],
+             ["wall_limit.nml:2", "&run", "wall_limit", ">= 0 s", "-5"], "negative wall_limit")
 expect_error([deck("events.nml", good_run + "&integrator events = 'sometimes' /\n"
                    "&body shape = 'sphere', radius = 1, mass = 1 /\n")],
              ["events.nml:2", "&integrator", "events", "'sometimes'", "'auto', 'local', 'global'"], "unknown events")

@@ -36,6 +36,12 @@ if(RICOCHET_USE_HDF5)
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_refusals ${PROJECT_SOURCE_DIR}/tests/data/meshes)
   ricochet_python_case(restart_bitwise_newmark check_restart.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/free_fall.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_restart_bitwise_newmark newmark)
+  # A full disk (a file-size limit) ends a run with one error line, no .tmp, valid indexes.
+  ricochet_python_case(disk_full check_disk_full.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_disk_full)
+  # SIGTERM, SIGINT and &run wall_limit stop a run with a checkpoint it continues from.
+  ricochet_python_case(stop_and_continue check_stop.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_stop_and_continue)
   ricochet_python_case(bouncing_ball check_bouncing_ball.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/input/validation/bouncing_ball.nml ${CMAKE_CURRENT_BINARY_DIR}/run/regression_bouncing_ball)
   foreach(pair cradle:newtons_cradle two_three:cradle_two_into_three billiards:billiards_break

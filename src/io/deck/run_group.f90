@@ -1,6 +1,6 @@
-!> The &run group of a deck (docs/input.md): title, end time, largest step, gravity. Its
-!> variables, the namelist read with the defaults reset, its rules, and its text in the
-!> effective deck.
+!> The &run group of a deck (docs/input.md): title, end time, largest step, gravity, wall
+!> limit. Its variables, the namelist read with the defaults reset, its rules, and its text
+!> in the effective deck.
 module run_group
   use kinds, only: dp
   use error_status, only: error_t
@@ -14,9 +14,10 @@ module run_group
 
   type(run_config_t), parameter :: run_default = run_config_t()
 
-  type(var_spec_t), parameter :: run_vars(4) = [ &
+  type(var_spec_t), parameter :: run_vars(5) = [ &
     var_spec_t('title', V_CHARACTER, 1, len(run_default%title)), var_spec_t('t_end', V_REAL, 1, 0), &
-    var_spec_t('dt_max', V_REAL, 1, 0), var_spec_t('gravity', V_REAL, 3, 0)]
+    var_spec_t('dt_max', V_REAL, 1, 0), var_spec_t('gravity', V_REAL, 3, 0), &
+    var_spec_t('wall_limit', V_REAL, 1, 0)]
 
 contains
 
@@ -27,10 +28,10 @@ contains
     type(error_t), intent(inout) :: err
     type(group_input_t) :: g
     character(len=len(config%title)) :: title
-    real(dp) :: t_end, dt_max, gravity(3)
+    real(dp) :: t_end, dt_max, gravity(3), wall_limit
     integer :: ios
     character(len=512) :: msg
-    namelist /run/ title, t_end, dt_max, gravity
+    namelist /run/ title, t_end, dt_max, gravity, wall_limit
 
     call open_group(src, group, run_vars, '&run', g)
     call prepare_group(g, err)
@@ -40,6 +41,7 @@ contains
     t_end = config%t_end
     dt_max = config%dt_max
     gravity = config%gravity
+    wall_limit = config%wall_limit
     msg = ''
     read (g%text, nml=run, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -50,10 +52,12 @@ contains
     config%t_end = t_end
     config%dt_max = dt_max
     config%gravity = gravity
+    config%wall_limit = wall_limit
 
     call require_finite(g, err, 't_end', [t_end])
     call require_finite(g, err, 'dt_max', [dt_max])
     call require_finite(g, err, 'gravity', gravity)
+    call require_finite(g, err, 'wall_limit', [wall_limit])
     if (err%failed()) return
     if (.not. given(g, 't_end')) then
       call fail(g, err, '', 't_end is required (end time of the run [s])')
@@ -66,6 +70,8 @@ contains
     else if (dt_max > t_end) then
       call fail(g, err, 'dt_max', 'dt_max = '//real_text(dt_max)//' s must not exceed t_end = '// &
                 real_text(t_end)//' s')
+    else if (wall_limit < 0.0_dp) then
+      call fail(g, err, 'wall_limit', 'wall_limit must be >= 0 s (0: no limit), got '//real_text(wall_limit))
     end if
   end subroutine read_run_group
 
@@ -78,6 +84,7 @@ contains
     call put_real(unit, 't_end', [config%t_end], '[s]')
     call put_real(unit, 'dt_max', [config%dt_max], '[s]')
     call put_real(unit, 'gravity', config%gravity, '[m/s^2]')
+    call put_real(unit, 'wall_limit', [config%wall_limit], '[s] 0: no limit')
     write (unit, '(a)') '/'
   end subroutine write_run_group
 

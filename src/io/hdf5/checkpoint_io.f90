@@ -15,10 +15,11 @@ module checkpoint_io
   use string_utils, only: str, dirname
   use parallel_env, only: parallel_t
   use body_state, only: bodies_t
-  use file_system, only: make_directory, rename_file, file_exists
+  use file_system, only: make_directory, rename_file, remove_file, file_exists
   use checkpoint_meta, only: checkpoint_meta_t, checkpoint_magic, checkpoint_version, &
-                             check_checkpoint_matches, rows_state_digest, bodies_state_digest, deck_line_length, shape_label_length
-  use h5_utils, only: hid_t, h5u_start, h5u_quiet, h5u_create_parallel, h5u_open_parallel, h5u_close_file, &
+                             check_checkpoint_matches, rows_state_digest, bodies_state_digest, deck_line_length, &
+                             shape_label_length
+  use h5_utils, only: hid_t, h5u_start, h5u_create_parallel, h5u_open_parallel, h5u_close_file, &
                       h5u_create_group, h5u_open_group, h5u_close_group, h5u_has_attr, h5u_write, &
                       h5u_write_strings, h5u_write_attr, h5u_read_attr, h5u_read_real_2d, h5u_read_real_1d, &
                       h5u_read_int8_1d, h5u_read_int_1d, h5u_read_strings
@@ -44,6 +45,7 @@ contains
     character(len=:), allocatable :: temporary
     integer(i8), allocatable :: shape_digests(:)
     integer(i8) :: n_shapes, n_lines, state_digest
+    type(error_t) :: ignored
     integer :: n
     if (err%failed()) return
     n = bodies%n_owned
@@ -155,6 +157,9 @@ contains
     call agree(par, err, 'writing a checkpoint failed on another rank')
     if (err%failed()) then
       call err%prefix("checkpoint '"//temporary//"': ")
+      ! No .tmp left behind (every rank has closed it); an older checkpoint stays as it was.
+      call par%barrier()
+      if (par%is_root()) call remove_file(temporary, ignored)
       return
     end if
     ! Complete on every rank: only now may it replace an older checkpoint of the same name.
@@ -201,10 +206,8 @@ contains
     end if
     call h5u_start(err)
     if (err%failed()) return
-    call h5u_quiet(.true.)
     call h5u_open_parallel(par, path, file_id, err)
     if (err%failed()) then
-      call h5u_quiet(.false.)
       call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"' cannot be opened as HDF5: "// &
                    'it is truncated, damaged or not an HDF5 file')
       return
@@ -231,7 +234,6 @@ contains
       if (err%ok()) meta%title = title
     end if
     call h5u_close_file(file_id, err)
-    call h5u_quiet(.false.)
     if (err%failed()) then
       err%code = ERR_CHECKPOINT
       if (index(err%message, trim(path)) == 0) call err%prefix("checkpoint '"//trim(path)//"' is damaged: ")

@@ -22,9 +22,9 @@ module frame_writer
   use body_state, only: bodies_t
   use shape, only: shape_library_t
   use quaternion, only: quat_mul, quat_conj
-  use file_system, only: make_directory, rename_file
+  use file_system, only: make_directory, rename_file, remove_file, write_file_atomically
   use surface_render, only: surface_render_t
-  use h5_utils, only: hid_t, h5u_start, h5u_quiet, h5u_create_parallel, h5u_open_serial, h5u_close_file, &
+  use h5_utils, only: hid_t, h5u_start, h5u_create_parallel, h5u_open_serial, h5u_close_file, &
                       h5u_create_group, h5u_close_group, h5u_write, h5u_write_strings, h5u_write_attr, &
                       h5u_read_attr
   implicit none
@@ -51,6 +51,12 @@ module frame_writer
     procedure :: restore => frame_restore
     procedure :: free => frame_free
   end type frame_writer_t
+
+  !> The text of an XDMF file as it is built (put), before it is written.
+  type :: text_t
+    character(len=:), allocatable :: text
+    integer :: length = 0
+  end type text_t
 
 contains
 
@@ -116,7 +122,6 @@ contains
     integer :: i
     character(len=:), allocatable :: path
     if (all(self%frame_sizes(1, 1:self%n_frames) /= unknown_size)) return
-    call h5u_quiet(.true.)   ! a missing frame is reported below, without HDF5's error stack
     do i = 1, self%n_frames
       if (self%frame_sizes(1, i) /= unknown_size) cycle
       path = join_path(self%dir, frame_file_name(i - 1))
@@ -130,7 +135,6 @@ contains
         exit
       end if
     end do
-    call h5u_quiet(.false.)
   end subroutine resolve_sizes
 
   !> Writes frame number n_frames (0-based) at `time` [s]: all owned bodies of every rank
@@ -221,6 +225,7 @@ contains
     call agree(par, err, 'writing a frame failed on another rank')
     if (err%failed()) then
       call err%prefix("frame file '"//temporary//"': ")
+      call discard(par, temporary)
       return
     end if
 
@@ -293,18 +298,18 @@ contains
     type(frame_writer_t), intent(in) :: self
     character(len=*), intent(in) :: kind
     type(error_t), intent(inout) :: err
-    integer :: unit, block, i
+    type(text_t) :: out
+    integer :: block, i
     if (err%failed()) return
-    call open_xdmf(join_path(self%dir, kind//'.xmf.tmp'), kind, unit, err, includes=.true.)
-    if (err%failed()) return
+    call open_xdmf(out, kind, includes=.true.)
     do block = 0, self%n_blocks_written - 1
-      write (unit, '(a)') '   <xi:include href="'//block_file_name(kind, block)// &
-        '" xpointer="xpointer(//Xdmf/Domain/Grid/Grid)"/>'
+      call put(out, '   <xi:include href="'//block_file_name(kind, block)// &
+        '" xpointer="xpointer(//Xdmf/Domain/Grid/Grid)"/>')
     end do
     do i = self%n_blocks_written*self%block_frames + 1, self%n_frames
-      call write_grid(self, unit, kind, i)
+      call write_grid(self, out, kind, i)
     end do
-    call close_xdmf(unit, join_path(self%dir, kind//'.xmf'), err)
+    call close_xdmf(out, join_path(self%dir, kind//'.xmf'), err)
   end subroutine write_index
 
   !> Block number `block` (0-based) of index `kind`: the grids of its block_frames frames, in
@@ -314,106 +319,111 @@ contains
     integer, intent(in) :: block
     character(len=*), intent(in) :: kind
     type(error_t), intent(inout) :: err
-    integer :: unit, i
-    character(len=:), allocatable :: path
+    type(text_t) :: out
+    integer :: i
     if (err%failed()) return
-    path = join_path(self%dir, block_file_name(kind, block))
-    call open_xdmf(path//'.tmp', kind//'_block_'//str(block), unit, err, includes=.false.)
-    if (err%failed()) return
+    call open_xdmf(out, kind//'_block_'//str(block), includes=.false.)
     do i = block*self%block_frames + 1, (block + 1)*self%block_frames
-      call write_grid(self, unit, kind, i)
+      call write_grid(self, out, kind, i)
     end do
-    call close_xdmf(unit, path, err)
+    call close_xdmf(out, join_path(self%dir, block_file_name(kind, block)), err)
   end subroutine write_block
 
-  !> Opens `temporary` and writes the head of an XDMF 2 file up to the opening of its
-  !> temporal collection `name` (includes: an index, which includes blocks).
-  subroutine open_xdmf(temporary, name, unit, err, includes)
-    character(len=*), intent(in) :: temporary, name
-    integer, intent(out) :: unit
-    type(error_t), intent(inout) :: err
+  !> Starts the text of an XDMF 2 file, up to the opening of its temporal collection `name`
+  !> (includes: an index, which includes blocks). The text is built in memory and written
+  !> in one go by close_xdmf: one place to check the write (a full disk) for every line.
+  subroutine open_xdmf(out, name, includes)
+    type(text_t), intent(out) :: out
+    character(len=*), intent(in) :: name
     logical, intent(in) :: includes
-    integer :: status
-    open (newunit=unit, file=temporary, status='replace', action='write', form='formatted', iostat=status)
-    if (status /= 0) then
-      call err%set(ERR_IO, "cannot create '"//temporary//"'")
-      return
-    end if
-    write (unit, '(a)') '<?xml version="1.0" ?>'
+    call put(out, '<?xml version="1.0" ?>')
     if (includes) then
-      write (unit, '(a)') '<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>'
-      write (unit, '(a)') '<Xdmf xmlns:xi="http://www.w3.org/2001/XInclude" Version="2.0">'
+      call put(out, '<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>')
+      call put(out, '<Xdmf xmlns:xi="http://www.w3.org/2001/XInclude" Version="2.0">')
     else
       ! No DOCTYPE in a block: libxml2 would look for Xdmf.dtd beside it when including it.
-      write (unit, '(a)') '<Xdmf Version="2.0">'
+      call put(out, '<Xdmf Version="2.0">')
     end if
-    write (unit, '(a)') ' <Domain>'
-    write (unit, '(a)') '  <Grid Name="'//name//'" GridType="Collection" CollectionType="Temporal">'
+    call put(out, ' <Domain>')
+    call put(out, '  <Grid Name="'//name//'" GridType="Collection" CollectionType="Temporal">')
   end subroutine open_xdmf
 
-  !> Closes what open_xdmf opened and publishes the file under `path` (rename).
-  subroutine close_xdmf(unit, path, err)
-    integer, intent(in) :: unit
+  !> Ends the text open_xdmf started and replaces `path` by it (temporary file, rename). On
+  !> a failed write the temporary is removed and `path` keeps its previous content.
+  subroutine close_xdmf(out, path, err)
+    type(text_t), intent(inout) :: out
     character(len=*), intent(in) :: path
     type(error_t), intent(inout) :: err
-    integer :: status
-    write (unit, '(a)') '  </Grid>'
-    write (unit, '(a)') ' </Domain>'
-    write (unit, '(a)') '</Xdmf>'
-    close (unit, iostat=status)
-    if (status /= 0) then
-      call err%set(ERR_IO, "cannot write '"//path//".tmp'")
-      return
-    end if
-    call rename_file(path//'.tmp', path, err)
+    call put(out, '  </Grid>')
+    call put(out, ' </Domain>')
+    call put(out, '</Xdmf>')
+    call write_file_atomically(path, out%text(1:out%length), err)
   end subroutine close_xdmf
 
+  !> Appends one line to the text (capacity doubles: linear cost, the indexes reach ~100 kB).
+  subroutine put(out, line)
+    type(text_t), intent(inout) :: out
+    character(len=*), intent(in) :: line
+    character(len=:), allocatable :: grown
+    integer :: needed
+    needed = out%length + len(line) + 1
+    if (.not. allocated(out%text)) allocate (character(len=max(65536, needed)) :: out%text)
+    if (len(out%text) < needed) then
+      allocate (character(len=max(2*len(out%text), needed)) :: grown)
+      grown(1:out%length) = out%text(1:out%length)
+      call move_alloc(grown, out%text)
+    end if
+    out%text(out%length + 1:needed) = line//new_line('a')
+    out%length = needed
+  end subroutine put
+
   !> The uniform grid of frame i (1-based) for index `kind` ('surfaces' or 'bodies').
-  subroutine write_grid(self, unit, kind, i)
+  subroutine write_grid(self, out, kind, i)
     type(frame_writer_t), intent(in) :: self
-    integer, intent(in) :: unit, i
+    type(text_t), intent(inout) :: out
+    integer, intent(in) :: i
     character(len=*), intent(in) :: kind
     character(len=:), allocatable :: h5, nb, np, nt
     h5 = frame_file_name(i - 1)
     nb = str(self%frame_sizes(1, i))
     np = str(self%frame_sizes(2, i))
     nt = str(self%frame_sizes(3, i))
-    write (unit, '(a)') '   <Grid Name="frame_'//str(i - 1)//'" GridType="Uniform">'
-    write (unit, '(a)') '    <Time Value="'//real_text(self%frame_times(i))//'"/>'
+    call put(out, '   <Grid Name="frame_'//str(i - 1)//'" GridType="Uniform">')
+    call put(out, '    <Time Value="'//real_text(self%frame_times(i))//'"/>')
     if (kind == 'surfaces') then
-      write (unit, '(a)') '    <Topology TopologyType="Triangle" NumberOfElements="'//nt//'">'
-      call data_item(unit, nt//' 3', 'Int', h5//':/surface/triangles')
-      write (unit, '(a)') '    </Topology>'
-      write (unit, '(a)') '    <Geometry GeometryType="XYZ">'
-      call data_item(unit, np//' 3', 'Float', h5//':/surface/points')
-      write (unit, '(a)') '    </Geometry>'
-      call attribute(unit, 'body_id', 'Scalar', 'Cell', nt, 'Int', h5//':/surface/body_id')
-      call attribute(unit, 'velocity', 'Vector', 'Node', np//' 3', 'Float', h5//':/surface/velocity')
+      call put(out, '    <Topology TopologyType="Triangle" NumberOfElements="'//nt//'">')
+      call data_item(out, nt//' 3', 'Int', h5//':/surface/triangles')
+      call put(out, '    </Topology>')
+      call put(out, '    <Geometry GeometryType="XYZ">')
+      call data_item(out, np//' 3', 'Float', h5//':/surface/points')
+      call put(out, '    </Geometry>')
+      call attribute(out, 'body_id', 'Scalar', 'Cell', nt, 'Int', h5//':/surface/body_id')
+      call attribute(out, 'velocity', 'Vector', 'Node', np//' 3', 'Float', h5//':/surface/velocity')
     else
       ! Polyvertex needs explicit connectivity, or ParaView shows no cells.
-      write (unit, '(a)') '    <Topology TopologyType="Polyvertex" NumberOfElements="'//nb// &
-        '" NodesPerElement="1">'
-      call data_item(unit, nb, 'Int', h5//':/bodies/vertex')
-      write (unit, '(a)') '    </Topology>'
-      write (unit, '(a)') '    <Geometry GeometryType="XYZ">'
-      call data_item(unit, nb//' 3', 'Float', h5//':/bodies/position')
-      write (unit, '(a)') '    </Geometry>'
-      call attribute(unit, 'gid', 'Scalar', 'Node', nb, 'Int', h5//':/bodies/gid')
-      call attribute(unit, 'shape_id', 'Scalar', 'Node', nb, 'Int4', h5//':/bodies/shape_id')
-      call attribute(unit, 'group_id', 'Scalar', 'Node', nb, 'Int4', h5//':/bodies/group_id')
-      call attribute(unit, 'velocity', 'Vector', 'Node', nb//' 3', 'Float', h5//':/bodies/velocity')
-      call attribute(unit, 'angular_velocity', 'Vector', 'Node', nb//' 3', 'Float', &
+      call put(out, '    <Topology TopologyType="Polyvertex" NumberOfElements="'//nb// &
+        '" NodesPerElement="1">')
+      call data_item(out, nb, 'Int', h5//':/bodies/vertex')
+      call put(out, '    </Topology>')
+      call put(out, '    <Geometry GeometryType="XYZ">')
+      call data_item(out, nb//' 3', 'Float', h5//':/bodies/position')
+      call put(out, '    </Geometry>')
+      call attribute(out, 'gid', 'Scalar', 'Node', nb, 'Int', h5//':/bodies/gid')
+      call attribute(out, 'shape_id', 'Scalar', 'Node', nb, 'Int4', h5//':/bodies/shape_id')
+      call attribute(out, 'group_id', 'Scalar', 'Node', nb, 'Int4', h5//':/bodies/group_id')
+      call attribute(out, 'velocity', 'Vector', 'Node', nb//' 3', 'Float', h5//':/bodies/velocity')
+      call attribute(out, 'angular_velocity', 'Vector', 'Node', nb//' 3', 'Float', &
                      h5//':/bodies/angular_velocity')
       ! 'Vector' with 4 columns: VTK's XDMF reader then makes a 4-component array per body
       ! ('Matrix' would give one tuple of 4n values).
-      call attribute(unit, 'orientation', 'Vector', 'Node', nb//' 4', 'Float', h5//':/bodies/orientation')
+      call attribute(out, 'orientation', 'Vector', 'Node', nb//' 4', 'Float', h5//':/bodies/orientation')
     end if
-    write (unit, '(a)') '   </Grid>'
+    call put(out, '   </Grid>')
   end subroutine write_grid
 
   !> number: 'Float' (f64), 'Int' (i64) or 'Int4' (i32), as written by h5_utils.
-  subroutine data_item(unit, dims, number, source)
-    integer, intent(in) :: unit
+  subroutine data_item(out, dims, number, source)
+    type(text_t), intent(inout) :: out
     character(len=*), intent(in) :: dims, number, source
     character(len=:), allocatable :: type_text
     select case (number)
@@ -424,15 +434,15 @@ contains
     case default
       type_text = 'NumberType="Int" Precision="8"'
     end select
-    write (unit, '(a)') '     <DataItem Dimensions="'//dims//'" '//type_text//' Format="HDF">'//source//'</DataItem>'
+    call put(out, '     <DataItem Dimensions="'//dims//'" '//type_text//' Format="HDF">'//source//'</DataItem>')
   end subroutine data_item
 
-  subroutine attribute(unit, name, kind, centre, dims, number, source)
-    integer, intent(in) :: unit
+  subroutine attribute(out, name, kind, centre, dims, number, source)
+    type(text_t), intent(inout) :: out
     character(len=*), intent(in) :: name, kind, centre, dims, number, source
-    write (unit, '(a)') '    <Attribute Name="'//name//'" AttributeType="'//kind//'" Center="'//centre//'">'
-    call data_item(unit, dims, number, source)
-    write (unit, '(a)') '    </Attribute>'
+    call put(out, '    <Attribute Name="'//name//'" AttributeType="'//kind//'" Center="'//centre//'">')
+    call data_item(out, dims, number, source)
+    call put(out, '    </Attribute>')
   end subroutine attribute
 
   !> 17 significant digits: reads back as the same double (XDMF times match the run exactly).
@@ -443,6 +453,16 @@ contains
     write (buffer, '(es24.16e3)') value
     text = trim(adjustl(buffer))
   end function real_text
+
+  !> After a failed write (every rank has closed the file): rank 0 removes the temporary, so
+  !> no .tmp is left behind; the error already says what failed, a failed removal adds nothing.
+  subroutine discard(par, temporary)
+    type(parallel_t), intent(in) :: par
+    character(len=*), intent(in) :: temporary
+    type(error_t) :: ignored
+    call par%barrier()
+    if (par%is_root()) call remove_file(temporary, ignored)
+  end subroutine discard
 
   !> Every rank learns that some rank failed; ranks without their own message get `message`.
   subroutine agree(par, err, message)

@@ -33,7 +33,7 @@ module h5_utils
   use parallel_env, only: parallel_t
   implicit none
   private
-  public :: hid_t, h5u_start, h5u_quiet, h5u_create_parallel, h5u_open_parallel, h5u_open_serial, &
+  public :: hid_t, h5u_start, h5u_create_parallel, h5u_open_parallel, h5u_open_serial, &
             h5u_close_file, h5u_create_group, h5u_open_group, h5u_close_group, h5u_has_attr, &
             h5u_has_link, h5u_write, h5u_write_strings, h5u_write_attr, h5u_read_attr, &
             h5u_read_real_2d, h5u_read_real_1d, h5u_read_int8_1d, h5u_read_int_1d, h5u_read_strings
@@ -61,20 +61,14 @@ contains
     integer :: status
     if (err%failed()) return
     call h5open_f(status)
-    if (status /= 0) call err%set(ERR_IO, 'cannot initialise the HDF5 library')
-  end subroutine h5u_start
-
-  !> Turns HDF5's own error-stack printing off (quiet = .true.) or back on: failures we
-  !> expect and report ourselves (a damaged file) should not spill stacks onto stderr.
-  subroutine h5u_quiet(quiet)
-    logical, intent(in) :: quiet
-    integer :: status
-    if (quiet) then
-      call h5eset_auto_f(0, status)
-    else
-      call h5eset_auto_f(1, status)
+    if (status /= 0) then
+      call err%set(ERR_IO, 'cannot initialise the HDF5 library')
+      return
     end if
-  end subroutine h5u_quiet
+    ! HDF5 prints its error stack (HDF5-DIAG lines, dozens per failure) unless told not to.
+    ! Every failure is reported once, by ricochet, naming the file: silence it for the run.
+    call h5eset_auto_f(0, status)
+  end subroutine h5u_start
 
   !> Creates (truncates) path on all ranks of par with the MPI-IO driver. Collective.
   subroutine h5u_create_parallel(par, path, file_id, err)
