@@ -18,12 +18,18 @@ module mass_properties
   use string_utils, only: str
   implicit none
   private
-  public :: polyhedron_mass_properties
+  public :: polyhedron_mass_properties, inertia_defect
 
   !> A closed mesh whose volume is below this factor of its bounding-box diagonal cubed is
   !> flat (all faces in one plane up to round-off): its "volume" is round-off noise of
   !> relative size ~1e-16 times the face count, not a body.
   real(dp), parameter :: flat_volume_factor = 1.0e-12_dp
+  !> Slack of the triangle inequality of principal moments, relative to their sum. A flat
+  !> plate meets I3 = I1 + I2 exactly, so computed moments of thin bodies sit on the bound
+  !> up to the round-off of the face sums and of the eigen-decomposition: about eps = 1e-16
+  !> per face term, 1e-10 for 10^6 faces; 1e-9 stays above that and far below any real
+  !> violation (a negative mass somewhere makes one of a few per cent or more).
+  real(dp), parameter :: inertia_slack = 1.0e-9_dp
 
 contains
 
@@ -110,6 +116,32 @@ contains
       inertia(i, i) = inertia(i, i) + second(1, 1) + second(2, 2) + second(3, 3)
     end do
   end subroutine polyhedron_mass_properties
+
+  !> Why three principal moments moments(3) [kg m^2] cannot be a rigid body's, or '' when
+  !> they can: a body of positive mass has a positive definite inertia tensor (every moment
+  !> > 0) and, each moment being a sum of m (y^2 + z^2)-like terms, no moment exceeds the
+  !> sum of the other two (up to inertia_slack). Moments that fail come from no mass
+  !> distribution at all: from a mesh, one whose shells count some volume negatively (a
+  !> cavity shell outside the body, shells oriented against each other).
+  pure function inertia_defect(moments) result(text)
+    real(dp), intent(in) :: moments(3)
+    character(len=:), allocatable :: text
+    integer :: k
+    text = ''
+    if (.not. all(ieee_is_finite(moments))) then
+      text = 'a principal moment is not a finite number'
+    else if (any(moments <= 0.0_dp)) then
+      text = 'not positive definite (every principal moment of a body with mass is > 0)'
+    else
+      do k = 1, 3
+        if (moments(k) - (sum(moments) - moments(k)) > inertia_slack*sum(moments)) then
+          text = 'moment '//str(k)//' exceeds the sum of the other two (no mass distribution has I'// &
+                 str(k)//' > I'//str(mod(k, 3) + 1)//' + I'//str(mod(k + 1, 3) + 1)//')'
+          return
+        end if
+      end do
+    end if
+  end function inertia_defect
 
   pure function source_of(m) result(text)
     type(mesh_t), intent(in) :: m

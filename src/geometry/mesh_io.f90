@@ -9,9 +9,10 @@
 module mesh_io
   use, intrinsic :: iso_fortran_env, only: int32, int64, real32
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use kinds, only: dp
+  use kinds, only: dp, i8
   use mesh, only: mesh_t
   use mesh_topology, only: build_mesh_topology
+  use mesh_self_intersection, only: find_self_intersections, self_intersection_stats_t
   use error_status, only: error_t, ERR_MESH, ERR_IO, ERR_INPUT
   use string_utils, only: str, lower
   implicit none
@@ -26,6 +27,11 @@ module mesh_io
   real(dp), parameter :: weld_tolerance = 1.0e-9_dp
   !> Triangles with area below this times diagonal^2 carry no surface: they are dropped.
   real(dp), parameter :: degenerate_area_tolerance = 1.0e-14_dp
+  !> Faces closer than this times the diagonal touch rather than cross (self-intersection
+  !> check): ten times the welding tolerance, so that a vertex meant to lie on a face but
+  !> off it by the rounding of coordinates printed with 8 significant digits (5e-9 of their
+  !> size) touches it; a crossing that shallow changes the volume by a relative 1e-8 at most.
+  real(dp), parameter :: self_intersection_tolerance = 1.0e-8_dp
   !> Powers of ten that are exact in double precision (Clinger's fast path: a mantissa
   !> below 2^53 times or divided by one of these is a single correctly rounded operation).
   real(dp), parameter :: exact_powers_of_ten(0:22) = [1.0e0_dp, 1.0e1_dp, 1.0e2_dp, 1.0e3_dp, &
@@ -40,6 +46,13 @@ module mesh_io
     integer :: n_merged_vertices = 0       !< vertices welded onto an earlier one
     integer :: n_degenerate_triangles = 0  !< dropped: repeated node after welding, or no area
     integer :: n_unused_nodes = 0          !< vertices no kept triangle uses (dropped)
+    integer(i8) :: n_pair_tests = 0        !< face pairs the self-intersection check tested
+    !> wall time [s] of each stage: reading and parsing the file, welding (with the removal
+    !> of degenerate triangles), topology, self-intersection check
+    real(dp) :: seconds_parse = 0.0_dp
+    real(dp) :: seconds_weld = 0.0_dp
+    real(dp) :: seconds_topology = 0.0_dp
+    real(dp) :: seconds_self_intersection = 0.0_dp
   end type mesh_read_stats_t
 
   !> Triangles as read, before welding.
@@ -69,6 +82,7 @@ contains
     type(mesh_read_stats_t) :: info
     type(error_t) :: e   ! local, so that an error the caller already holds does not stop the read
     integer :: dot, slash
+    real(dp) :: clock
 
     file = trim(path)
     dot = index(file, '.', back=.true.)
@@ -87,6 +101,7 @@ contains
       end if
     end if
 
+    clock = wall_seconds()
     call read_whole_file(file, text, e)
     if (e%failed()) then
       call err%set(e%code, e%message)
@@ -107,7 +122,9 @@ contains
     end if
 
     if (present(scale)) s%verts(:, 1:s%nv) = scale*s%verts(:, 1:s%nv)
+    clock = wall_seconds() - clock
     call soup_to_mesh(s, file, m, info, e)
+    info%seconds_parse = clock
     if (present(stats)) stats = info
     if (e%failed()) then
       call m%free()
@@ -640,9 +657,11 @@ contains
     type(mesh_read_stats_t), intent(out) :: info
     type(error_t), intent(inout) :: err
     logical, allocatable :: referenced(:)
-    integer, allocatable :: node_of(:), faces(:, :)
-    real(dp) :: lower(3), upper(3), diag, area_min, e1(3), e2(3), c(3)
-    integer :: t, i, n_kept, n_faces, n_referenced, abc(3)
+    integer, allocatable :: node_of(:), faces(:, :), file_triangle(:)
+    real(dp) :: lower(3), upper(3), diag, area_min, e1(3), e2(3), c(3), clock, point(3)
+    integer :: t, i, n_kept, n_faces, n_referenced, abc(3), pair(2)
+    integer(i8) :: n_crossing
+    type(self_intersection_stats_t) :: cross_stats
 
     info%n_file_vertices = s%nv
     info%n_file_triangles = s%nt
@@ -667,6 +686,7 @@ contains
     end do
     diag = norm2(upper - lower)
     n_referenced = count(referenced)
+    clock = wall_seconds()
 
     allocate (node_of(s%nv))
     call weld(s%verts(:, 1:s%nv), referenced, lower, weld_tolerance*diag, node_of, n_kept)
@@ -674,7 +694,7 @@ contains
 
     ! Degenerate triangles: a repeated node (after welding) or an area below the tolerance.
     area_min = degenerate_area_tolerance*diag**2
-    allocate (faces(3, s%nt))
+    allocate (faces(3, s%nt), file_triangle(s%nt))
     n_faces = 0
     do t = 1, s%nt
       abc = node_of(s%tris(:, t))
@@ -685,7 +705,9 @@ contains
       if (0.5_dp*norm2(c) < area_min) cycle
       n_faces = n_faces + 1
       faces(:, n_faces) = abc
+      file_triangle(n_faces) = t
     end do
+    deallocate (node_of)
     info%n_degenerate_triangles = s%nt - n_faces
     if (n_faces == 0) then
       call err%set(ERR_MESH, "mesh file '"//path//"': all "//str(s%nt)//' triangles are degenerate (no area)')
@@ -694,10 +716,51 @@ contains
 
     ! All file vertices go in; the merged and unused ones are dropped by mesh_topology.
     call m%init(s%verts(:, 1:s%nv), faces(:, 1:n_faces), path)
+    deallocate (faces)
+    info%seconds_weld = wall_seconds() - clock
+    clock = wall_seconds()
     call build_mesh_topology(m, err)
+    info%seconds_topology = wall_seconds() - clock
     if (err%failed()) return
     info%n_unused_nodes = s%nv - info%n_merged_vertices - m%n_nodes
+
+    ! A closed, oriented surface may still cross itself; then it bounds no solid.
+    clock = wall_seconds()
+    call find_self_intersections(m, self_intersection_tolerance*diag, n_crossing, pair, point, cross_stats)
+    info%seconds_self_intersection = wall_seconds() - clock
+    info%n_pair_tests = cross_stats%n_pair_tests
+    if (n_crossing > 0) then
+      call err%set(ERR_MESH, "mesh '"//path//"' intersects itself (a solid's surface must not cross itself): " &
+                   //str(n_crossing)//' pair(s) of faces cross, first: '//triangle_text(pair(1))//' and ' &
+                   //triangle_text(pair(2))//' cross at '//point_text(point))
+    end if
+
+  contains
+
+    !> "triangle 12 (line 40)": counted from 1 in file order, polygons split into fans.
+    function triangle_text(face) result(text)
+      integer, intent(in) :: face
+      character(len=:), allocatable :: text
+      integer :: k
+      k = file_triangle(face)
+      text = 'triangle '//str(k)
+      if (allocated(s%tri_line)) text = text//' (line '//str(s%tri_line(k))//')'
+    end function triangle_text
+
   end subroutine soup_to_mesh
+
+  function point_text(p) result(text)
+    real(dp), intent(in) :: p(3)
+    character(len=:), allocatable :: text
+    text = '('//str(p(1), '(1pg0.9)')//', '//str(p(2), '(1pg0.9)')//', '//str(p(3), '(1pg0.9)')//')'
+  end function point_text
+
+  !> Wall-clock time [s] since an arbitrary origin, for the stage timings.
+  real(dp) function wall_seconds()
+    integer(int64) :: count, rate
+    call system_clock(count, rate)
+    wall_seconds = real(count, dp)/real(rate, dp)
+  end function wall_seconds
 
   !> Merges vertices closer than tol [file units] (exact duplicates always): node_of(i) is
   !> the index of the first vertex within tol of vertex i, itself for the first of its

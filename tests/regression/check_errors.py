@@ -49,6 +49,61 @@ expect_error([deck("open.nml", good_run + f"&body name = 'bunny', shape = 'mesh'
              ["stanford-bunny.obj", "open", "223 boundary edge", "&body #1 'bunny'"], "open mesh")
 expect_error([deck("suzanne.nml", good_run + f"&body name = 'monkey', shape = 'mesh', mesh_file = '{data}/meshes/suzanne.obj', mass = 1.0 /\n")],
              ["suzanne.obj", "non-manifold"], "non-manifold mesh")
+
+
+# Closed, consistently oriented meshes whose surface crosses itself bound no solid (issue 19):
+# refused naming the file, the group and the first two faces that cross (file triangles and
+# lines) with a point of the crossing.
+CUBE_FACES = [(1, 3, 2), (1, 4, 3), (5, 6, 7), (5, 7, 8), (1, 2, 6), (1, 6, 5),
+              (2, 3, 7), (2, 7, 6), (3, 4, 8), (3, 8, 7), (4, 1, 5), (4, 5, 8)]
+
+
+def cube_corners(lo, side):
+    x, y, z = lo
+    return [(x, y, z), (x + side, y, z), (x + side, y + side, z), (x, y + side, z),
+            (x, y, z + side), (x + side, y, z + side), (x + side, y + side, z + side), (x, y + side, z + side)]
+
+
+def cubes_obj(name, shells):
+    """OBJ of cube shells (corners, inward?): 8 'v' lines then 12 'f' lines per shell."""
+    path = os.path.join(work, name)
+    with open(path, "w") as f:
+        for k, (corners, inward) in enumerate(shells):
+            f.writelines("v %r %r %r\n" % c for c in corners)
+            for a, b, c3 in CUBE_FACES:
+                if inward:
+                    b, c3 = c3, b
+                f.write(f"f {a + 8 * k} {b + 8 * k} {c3 + 8 * k}\n")
+    return path
+
+
+# Two cubes of side 10, the second shifted by 5 along each axis: 2000 kg instead of 1875 if
+# accepted. Cube 1's top (triangle 3, line 11) meets cube 2's y = 5 side (triangle 18, line 34)
+# along y = 5, z = 10, x in [5, 10].
+two = cubes_obj("two_cubes.obj", [(cube_corners((0, 0, 0), 10.0), False), (cube_corners((5, 5, 5), 10.0), False)])
+expect_error([deck("two_cubes.nml", good_run + f"&body name = 'pair', shape = 'mesh', mesh_file = '{two}', density = 1.0 /\n")],
+             ["two_cubes.obj", "&body #1 'pair'", "intersects itself", "6 pair(s) of faces cross",
+              "triangle 3 (line 11) and triangle 18 (line 34) cross at (7.50000000, 5.00000000, 10.0000000)"],
+             "two overlapping cubes in one mesh")
+# A cube with its corner (10, 10, 10) pushed through the bottom face to (5, 5, -5): negative
+# principal moments if accepted. The fan around the moved corner crosses the bottom.
+corners = cube_corners((0, 0, 0), 10.0)
+corners[6] = (5.0, 5.0, -5.0)
+pushed = cubes_obj("pushed_cube.obj", [(corners, False)])
+expect_error([deck("pushed.nml", good_run + f"&body name = 'dented', shape = 'mesh', mesh_file = '{pushed}', density = 1.0 /\n")],
+             ["pushed_cube.obj", "&body #1 'dented'", "intersects itself", "4 pair(s) of faces cross",
+              "triangle 1 (line 9) and triangle 3 (line 11)"], "a cube with a vertex pushed through")
+# Inertia: an inward-facing (cavity) cube shell far outside the body counts negative mass
+# there: volume 1 - 0.125 > 0 and no crossing, but principal moments no body has.
+cavity = cubes_obj("far_cavity.obj", [(cube_corners((0, 0, 0), 1.0), False), (cube_corners((10, 0, 0), 0.5), True)])
+expect_error([deck("far_cavity.nml", good_run + f"&body name = 'ghost', shape = 'mesh', mesh_file = '{cavity}', density = 1.0 /\n")],
+             ["far_cavity.nml:2", "&body #1 'ghost'", "far_cavity.obj", "principal moments", "not positive definite"],
+             "a mesh whose inertia is not physical")
+# User moments breaking the triangle inequality (I3 > I1 + I2): the deck's inertia is named.
+expect_error([deck("inertia.nml", good_run + "&body name = 'odd', shape = 'box', size = 1, 1, 1, mass = 1.0, "
+                   "inertia = 1.0, 1.0, 2.5 /\n")],
+             ["inertia.nml:2", "&body #1 'odd'", "inertia", "larger than the sum of the other two"],
+             "user moments violating the triangle inequality")
 ok_deck = deck("ok.nml", good_run + "&body name = 'ball', shape = 'sphere', radius = 1.0, mass = 1.0 /\n")
 with open(os.path.join(work, "truncated.h5"), "wb") as f:
     f.write(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)

@@ -14,7 +14,7 @@ program test_mass_properties
   use mesh, only: mesh_t
   use shape, only: shape_t, SHAPE_SPHERE, SHAPE_MESH
   use error_status, only: error_t, ERR_MESH
-  use mass_properties, only: polyhedron_mass_properties
+  use mass_properties, only: polyhedron_mass_properties, inertia_defect
   use linear_algebra, only: symmetric_eigen
   use shape_builders, only: box_mesh, cylinder_mesh, icosahedron_mesh, icosphere_mesh, tetrahedron_mesh, &
                             torus_mesh, l_shape_mesh, random_blob_mesh
@@ -41,9 +41,35 @@ program test_mass_properties
   call test_blob()
   call test_sphere_shape()
   call test_errors()
+  call test_inertia_defect()
   call test_finish()
 
 contains
+
+  !> Principal moments a rigid body can have: positive, each at most the sum of the other
+  !> two (equality for a flat plate, slack 1e-9 of the sum for round-off); and what fails.
+  subroutine test_inertia_defect()
+    type(mesh_t) :: m
+    type(shape_t) :: s
+    type(error_t) :: err
+    call check(len(inertia_defect([1.0_dp, 2.0_dp, 3.0_dp])) == 0, 'inertia 1, 2, 3 (a plate) is physical')
+    call check(len(inertia_defect([2.0_dp, 2.0_dp, 2.0_dp])) == 0, 'isotropic inertia is physical')
+    call check(len(inertia_defect([1.0_dp, 2.0_dp, 3.0_dp*(1.0_dp + 1.0e-12_dp)])) == 0, &
+               'a plate with round-off above the bound (1e-12) is accepted')
+    call check(index(inertia_defect([1.0_dp, 2.0_dp, 3.001_dp]), 'moment 3 exceeds the sum') > 0, &
+               'I3 = 3.001 > I1 + I2 = 3 refused')
+    call check(index(inertia_defect([4.0_dp, 1.0_dp, 2.0_dp]), 'moment 1 exceeds the sum') > 0, &
+               'I1 = 4 > I2 + I3 = 3 refused, in any position')
+    call check(index(inertia_defect([-101.5_dp, -99.6_dp, 45.3_dp]), 'not positive definite') > 0, &
+               'the moments of issue 19''s pushed-through cube refused')
+    call check(index(inertia_defect([0.0_dp, 1.0_dp, 1.0_dp]), 'not positive definite') > 0, &
+               'a zero moment (a needle) refused')
+    ! A thin plate made as a mesh: its computed moments sit on the bound I3 = I1 + I2 to
+    ! round-off, and pass.
+    call box_mesh([1.0_dp, 2.0_dp, 1.0e-6_dp], m)
+    call make_mesh_shape(m, 'plate', s, err)
+    call check(err%ok() .and. len(inertia_defect(s%unit_inertia)) == 0, 'a 1e-6 thin box plate is physical')
+  end subroutine test_inertia_defect
 
   !> Closed-form box: V = abc, I_xx = V (b^2 + c^2)/12 etc. about the centre (any
   !> mechanics text, e.g. Wikipedia "List of moments of inertia", solid cuboid).
