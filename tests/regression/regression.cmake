@@ -86,6 +86,10 @@ if(RICOCHET_USE_HDF5)
   # A chain A -> B -> C (a stale bound would tunnel) and a free cluster never stepped (2 s)
   ricochet_python_case(local_cases check_local_cases.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_local_cases)
+  # Materials per pair: two balls of different e on one floor (each its own apex ratio e^2),
+  # two cubes of different mu, under each restitution_rule and friction_rule (4 s)
+  ricochet_python_case(materials check_materials.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_materials)
   # (runs a few valid decks too, which write output)
   ricochet_python_case(input_errors check_errors.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_input_errors ${RICOCHET_TEST_DATA})
