@@ -8,13 +8,19 @@ module input_config
   implicit none
   private
   public :: run_config_t, integrator_config_t, contact_config_t, output_config_t, body_spec_t, &
-            deck_t, ROTATION_NEWMARK, ROTATION_EXACT, EVENTS_AUTO, EVENTS_LOCAL, EVENTS_GLOBAL
+            deck_t, ROTATION_NEWMARK, ROTATION_EXACT, EVENTS_AUTO, EVENTS_LOCAL, EVENTS_GLOBAL, &
+            RULE_MIN, RULE_MAX, RULE_MEAN, RULE_GEOMETRIC
 
   character(len=*), parameter :: ROTATION_NEWMARK = 'newmark'
   character(len=*), parameter :: ROTATION_EXACT = 'exact'
   character(len=*), parameter :: EVENTS_AUTO = 'auto'
   character(len=*), parameter :: EVENTS_LOCAL = 'local'
   character(len=*), parameter :: EVENTS_GLOBAL = 'global'
+  !> How a contact combines the materials of its two bodies (contact_material)
+  character(len=*), parameter :: RULE_MIN = 'min'
+  character(len=*), parameter :: RULE_MAX = 'max'
+  character(len=*), parameter :: RULE_MEAN = 'mean'             !< arithmetic mean
+  character(len=*), parameter :: RULE_GEOMETRIC = 'geometric'   !< sqrt(a b) (friction only)
 
   type :: run_config_t
     character(len=256) :: title = 'ricochet run'
@@ -41,6 +47,10 @@ module input_config
   type :: contact_config_t
     real(dp) :: restitution = 0.5_dp         !< coefficient of restitution e in [0, 1]
     real(dp) :: friction = 0.0_dp            !< Coulomb coefficient mu >= 0
+    !> e of a contact from its bodies' e: 'min' (default), 'max' or 'mean'
+    character(len=16) :: restitution_rule = RULE_MIN
+    !> mu of a contact from its bodies' mu: 'geometric' (default, sqrt(mu_a mu_b)), 'min', 'max' or 'mean'
+    character(len=16) :: friction_rule = RULE_GEOMETRIC
     real(dp) :: min_separation = -1.0_dp     !< [m]; auto: 1e-4 of the smallest body size
     !> [m/s] impacts approaching slower than this are inelastic (resting contact, no Zeno
     !> sequence of ever smaller bounces); auto (-1): max(2 |g| dt_max, sqrt(2 |g| min_separation))
@@ -95,7 +105,7 @@ module input_config
     !> geometry. The shape's inertia tensor must be diagonal in its own frame.
     real(dp) :: inertia(3) = -1.0_dp
     !> Material of the group's bodies (fixed ones too); -1: the &contact value. A pair
-    !> combines them as contact_material says (e: the smaller, mu: the geometric mean).
+    !> combines them by &contact's restitution_rule and friction_rule (contact_material).
     real(dp) :: restitution = -1.0_dp        !< coefficient of restitution e in [0, 1] [-]
     real(dp) :: friction = -1.0_dp           !< Coulomb coefficient mu >= 0 [-]
     integer :: line = 0                      !< line of the deck where the group starts

@@ -15,6 +15,14 @@
 !>    convex, so KE+ <= KE-, with equality at e = 1; momentum is conserved; and since the
 !>    projection is unique the answer is symmetric whenever the contact set is: a box landing
 !>    flat on four corners gets no spin from the order of its corners.
+!>  - Contacts of different e in one group (a ball hit at once by a bouncy and a dead one):
+!>    each contact's impulse is blended with its own e, P_i = (1 - e_i) lambda_i +
+!>    e_i lambda_elastic_i, so that an isolated contact leaves at -e_i times its approach
+!>    speed. Contacts not approaching take the smallest e of those that do (a cradle's
+!>    touching balls pass the impact on as the impact's own material). Such a blend is not a
+!>    convex combination of the two solutions, so it is kept only if it neither adds kinetic
+!>    energy nor leaves a contact approaching; otherwise the group falls back to one e, the
+!>    smallest of its approaching contacts (always dissipative).
 !> The NNLS solve is exact (Lawson-Hanson), so no iteration order enters the answer.
 module impulse_solver
   use kinds, only: dp
@@ -37,6 +45,8 @@ module impulse_solver
     integer :: max_rounds_seen = 0
     integer :: cap_hits = 0           !< groups whose elastic loop hit the cap
     integer :: nnls_iterations = 0
+    integer :: mixed_groups = 0       !< groups solved with each contact's own e
+    integer :: mixed_fallbacks = 0    !< groups of several e that fell back to one (the smallest)
     integer :: nnls_unconverged = 0   !< solves stopped at the cap (feasible, not optimal: the
                                       !< next time of contact catches any leftover approach)
   end type impulse_stats_t
@@ -132,6 +142,7 @@ contains
     integer :: n_members, m, i, k, round, iterations
     logical :: converged
     real(dp) :: restitution
+    real(dp), allocatable :: e_contact(:), mixed_impulse(:), vt_mixed(:)
 
     m = size(contacts)
     ! Local numbering of the moving bodies of the group.
@@ -155,6 +166,8 @@ contains
     u = matmul(transpose(e_matrix), vt0)
     restitution = 0.0_dp
     if (any(u < -velocity_tolerance)) restitution = minval(contacts%restitution, mask=u < -velocity_tolerance)
+    ! each contact's own e (those not approaching: the group's)
+    e_contact = merge(contacts%restitution, restitution, u < -velocity_tolerance)
 
     ! Inelastic projection over all contacts of the group.
     allocate (lambda(m), lambda_elastic(m))
@@ -171,7 +184,7 @@ contains
 
     ! Generalized reflections (e = 1) on the contacts still approaching.
     vt_elastic = vt0
-    if (restitution > 0.0_dp) then
+    if (any(e_contact > 0.0_dp)) then
       allocate (approaching(m))
       do round = 1, max_rounds + 1
         u = matmul(transpose(e_matrix), vt_elastic)
@@ -200,6 +213,23 @@ contains
       end do
     end if
 
+    if (any(e_contact /= restitution)) then
+      mixed_impulse = (1.0_dp - e_contact)*lambda + e_contact*lambda_elastic
+      vt_mixed = vt0 + matmul(e_matrix, mixed_impulse)
+      u = matmul(transpose(e_matrix), vt_mixed)
+      ! (energy to 1e-12 relative: rounding of the sums, far below any physical gain)
+      if (dot_product(vt_mixed, vt_mixed) <= dot_product(vt0, vt0)*(1.0_dp + 1.0e-12_dp) .and. &
+          all(u >= -contacts%allowed_approach - velocity_tolerance)) then
+        impulse = mixed_impulse
+        do k = 1, n_members
+          call set_scaled_velocity(bodies, members(k), vt_mixed(6*k - 5:6*k))
+        end do
+        stats%groups = stats%groups + 1
+        stats%mixed_groups = stats%mixed_groups + 1
+        return
+      end if
+      stats%mixed_fallbacks = stats%mixed_fallbacks + 1
+    end if
     vt0 = (1.0_dp - restitution)*vt_inelastic + restitution*vt_elastic
     impulse = (1.0_dp - restitution)*lambda + restitution*lambda_elastic
     do k = 1, n_members

@@ -45,6 +45,14 @@ expect_error([deck("wall_limit.nml", "&run t_end = 1.0,\n dt_max = 0.1, wall_lim
 expect_error([deck("events.nml", good_run + "&integrator events = 'sometimes' /\n"
                    "&body shape = 'sphere', radius = 1, mass = 1 /\n")],
              ["events.nml:2", "&integrator", "events", "'sometimes'", "'auto', 'local', 'global'"], "unknown events")
+expect_error([deck("erule.nml", good_run + "&contact restitution = 0.5,\n  restitution_rule = 'product' /\n"
+                   "&body shape = 'sphere', radius = 1, mass = 1 /\n")],
+             ["erule.nml:3", "&contact", "restitution_rule", "'product'", "'min', 'max', 'mean'"],
+             "unknown restitution_rule")
+expect_error([deck("murule.nml", good_run + "&contact friction_rule = 'harmonic' /\n"
+                   "&body shape = 'sphere', radius = 1, mass = 1 /\n")],
+             ["murule.nml:2", "&contact", "friction_rule", "'harmonic'", "'geometric', 'min', 'max', 'mean'"],
+             "unknown friction_rule")
 expect_error([deck("open.nml", good_run + f"&body name = 'bunny', shape = 'mesh', mesh_file = '{data}/meshes/stanford-bunny.obj', mass = 1.0 /\n")],
              ["stanford-bunny.obj", "open", "223 boundary edge", "&body #1 'bunny'"], "open mesh")
 expect_error([deck("suzanne.nml", good_run + f"&body name = 'monkey', shape = 'mesh', mesh_file = '{data}/meshes/suzanne.obj', mass = 1.0 /\n")],
@@ -139,6 +147,9 @@ c.check(proc.returncode == 0 and "&integrator" in proc.stdout and "newmark_beta"
         "--check prints the effective deck with defaults filled in")
 c.check(re.search(r"^\s*events\s*= 'auto'$", proc.stdout, re.M) is not None,
         "--check prints &integrator events (default 'auto')")
+c.check(re.search(r"^\s*restitution_rule\s*= 'min'$", proc.stdout, re.M) is not None and
+        re.search(r"^\s*friction_rule\s*= 'geometric'$", proc.stdout, re.M) is not None,
+        "--check prints &contact restitution_rule 'min' and friction_rule 'geometric' (the defaults)")
 effective = deck("effective.nml", proc.stdout)
 proc = subprocess.run([exe, "--check", effective], capture_output=True, text=True, cwd=work)
 c.check(proc.returncode == 0, f"the effective deck is itself a valid deck: {proc.stderr.strip()}")

@@ -99,6 +99,26 @@ if(RICOCHET_USE_HDF5)
   # A chain A -> B -> C (a stale bound would tunnel) and a free cluster never stepped (2 s)
   ricochet_python_case(local_cases check_local_cases.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_local_cases)
+  # Materials per pair: two balls of different e on one floor (each its own apex ratio e^2),
+  # two cubes of different mu, under each restitution_rule and friction_rule (4 s)
+  ricochet_python_case(materials check_materials.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_materials)
+  # Stress cases (label stress, each < 2 s here): mass ratio 1e6, a cube spinning at
+  # 1e4 rad/s landing, bodies from 1e-6 m to 1e4 m (check_stress.py)
+  foreach(case mass_ratio spinning)
+    ricochet_python_case(stress_${case} check_stress.py ${case} $<TARGET_FILE:ricochet>
+                         ${CMAKE_CURRENT_BINARY_DIR}/run/regression_stress_${case})
+    set_tests_properties(regression.stress_${case} PROPERTIES LABELS "regression;stress" TIMEOUT 120)
+  endforeach()
+  ricochet_python_case(stress_scales check_stress.py scales $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_stress_scales global)
+  set_tests_properties(regression.stress_scales PROPERTIES LABELS "regression;stress" TIMEOUT 120)
+  # KNOWN BUG: the local event loop (the default) lets the 1e-6 m sphere fall through the
+  # 1e4 m one (no contact found; check_stress.py says what is known). Expected to fail until
+  # fixed: when this test "fails", the bug is fixed and WILL_FAIL should go.
+  ricochet_python_case(stress_scales_local check_stress.py scales $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_stress_scales_local local)
+  set_tests_properties(regression.stress_scales_local PROPERTIES LABELS "regression;stress" TIMEOUT 120 WILL_FAIL TRUE)
   # (runs a few valid decks too, which write output)
   ricochet_python_case(input_errors check_errors.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_input_errors ${RICOCHET_TEST_DATA})

@@ -1,11 +1,12 @@
-!> contact_material: the pair rules (e: the smaller; mu: the geometric mean, exact for one
-!> material and zero with a frictionless body, no overflow for extreme valid values), and
+!> contact_material: the pair rules (defaults e: the smaller; mu: the geometric mean, exact
+!> for one material and zero with a frictionless body, no overflow for extreme valid
+!> values; the other rules min, max, mean, each exact for one material), and
 !> the per-group table filled from a deck (a group's own value, or &contact's for -1, fixed
 !> bodies included). Values are compared exactly where the rule is exact (min, equal
 !> inputs, a zero factor) and to a few ulps where a square root is taken.
 program test_contact_material
   use kinds, only: dp
-  use input_config, only: deck_t
+  use input_config, only: deck_t, RULE_MIN, RULE_MAX, RULE_MEAN, RULE_GEOMETRIC
   use contact_material, only: combined_restitution, combined_friction, material_table_t
   use assertions
   implicit none
@@ -15,7 +16,8 @@ program test_contact_material
   ! ulp, so the result is within ~1.5 ulp of the true geometric mean: 4 eps is safe.
   real(dp), parameter :: tol = 4.0_dp*epsilon(1.0_dp)
   real(dp) :: mu
-  integer :: i, j
+  integer :: i, j, r
+  character(len=*), parameter :: rules(4) = [character(len=9) :: RULE_MIN, RULE_MAX, RULE_MEAN, RULE_GEOMETRIC]
 
   ! Restitution: the smaller, symmetric, the same material keeps its e.
   call check(combined_restitution(0.9_dp, 0.3_dp) == 0.3_dp, 'e: the smaller of the two')
@@ -74,6 +76,39 @@ program test_contact_material
                  table%pair_friction(i, j) == table%pair_friction(j, i), 'pair rules are symmetric')
     end do
   end do
+  ! The other rules, by name: min, max, mean (0.5 a + 0.5 b: exact for these binary
+  ! fractions), and each returns one material's value exactly, and stays symmetric.
+  call check(combined_restitution(0.9_dp, 0.5_dp, RULE_MIN) == 0.5_dp, 'e, min: 0.5')
+  call check(combined_restitution(0.9_dp, 0.5_dp, RULE_MAX) == 0.9_dp, 'e, max: 0.9')
+  call check(combined_restitution(0.75_dp, 0.25_dp, RULE_MEAN) == 0.5_dp, 'e, mean: (0.75 + 0.25)/2')
+  call check(combined_restitution(1.0_dp, 0.0_dp, RULE_MEAN) == 0.5_dp, 'e, mean: stays in [0, 1]')
+  call check(combined_friction(0.2_dp, 0.8_dp, RULE_MIN) == 0.2_dp, 'mu, min')
+  call check(combined_friction(0.2_dp, 0.8_dp, RULE_MAX) == 0.8_dp, 'mu, max')
+  call check(combined_friction(0.25_dp, 0.75_dp, RULE_MEAN) == 0.5_dp, 'mu, mean')
+  call check(combined_friction(0.0_dp, 0.8_dp, RULE_MEAN) == 0.4_dp, 'mu, mean: a frictionless body halves, not zeroes')
+  call check(combined_friction(0.0_dp, 0.8_dp, RULE_GEOMETRIC) == 0.0_dp, 'mu, geometric by name: zero wins')
+  call check(combined_friction(1.0e300_dp, 1.0e308_dp, RULE_MEAN) <= huge(1.0_dp), 'mu, mean: no overflow')
+  do r = 1, size(rules)
+    call check(combined_restitution(0.3_dp, 0.3_dp, trim(rules(r))) == 0.3_dp .and. &
+               combined_friction(0.1_dp, 0.1_dp, trim(rules(r))) == 0.1_dp, &
+               'rule '//trim(rules(r))//': one material keeps its value exactly')
+    call check(combined_friction(0.1_dp, 0.7_dp, trim(rules(r))) == combined_friction(0.7_dp, 0.1_dp, trim(rules(r))), &
+               'rule '//trim(rules(r))//': symmetric')
+  end do
+  ! The table applies &contact's rules.
+  deck%contact%restitution_rule = RULE_MAX
+  deck%contact%friction_rule = RULE_MIN
+  call table%init(deck)
+  call check(table%pair_restitution(1, 2) == 0.9_dp, 'table, restitution_rule max: floor 0.2, group 2 0.9 -> 0.9')
+  call check(table%pair_friction(3, 4) == 0.25_dp, 'table, friction_rule min: 1.0 and 0.25 -> 0.25')
+  deck%contact%restitution_rule = RULE_MEAN
+  deck%contact%friction_rule = RULE_MEAN
+  call table%init(deck)
+  call check_close(table%pair_restitution(1, 2), 0.55_dp, tol, 'table, restitution_rule mean: (0.2 + 0.9)/2')
+  call check(table%pair_friction(3, 4) == 0.625_dp, 'table, friction_rule mean: (1.0 + 0.25)/2')
+  deck%contact%restitution_rule = RULE_MIN
+  deck%contact%friction_rule = RULE_GEOMETRIC
+
   ! Re-initialising replaces the table (a restart builds it again).
   deck%bodies(2)%restitution = -1.0_dp
   call table%init(deck)

@@ -1,20 +1,26 @@
-!> The &contact group of a deck (docs/input.md): restitution, friction, minimum separation,
-!> resting and sleeping thresholds. Its variables, the namelist read with the defaults
+!> The &contact group of a deck (docs/input.md): restitution, friction and how a pair
+!> combines its bodies' values, minimum separation, resting and sleeping thresholds. Its variables, the namelist read with the defaults
 !> reset, its rules, and its text in the effective deck.
 module contact_group
   use kinds, only: dp
   use error_status, only: error_t
-  use input_config, only: contact_config_t
-  use namelist_source, only: DECK_AUTO, V_REAL, var_spec_t, source_t, group_t, group_input_t, open_group, &
-                             prepare_group, translate_read_error, require_finite, fail, real_text, put_real
+  use string_utils, only: lower
+  use input_config, only: contact_config_t, RULE_MIN, RULE_MAX, RULE_MEAN, RULE_GEOMETRIC
+  use namelist_source, only: DECK_AUTO, V_REAL, V_CHARACTER, var_spec_t, source_t, group_t, group_input_t, &
+                             open_group, prepare_group, translate_read_error, require_finite, fail, real_text, &
+                             put_real, put_text
   implicit none
   private
   public :: read_contact_group, write_contact_group
 
-  type(var_spec_t), parameter :: contact_vars(6) = [ &
+  type(contact_config_t), parameter :: contact_default = contact_config_t()
+
+  type(var_spec_t), parameter :: contact_vars(8) = [ &
     var_spec_t('restitution', V_REAL, 1, 0), var_spec_t('friction', V_REAL, 1, 0), &
     var_spec_t('min_separation', V_REAL, 1, 0), var_spec_t('rest_speed', V_REAL, 1, 0), &
-    var_spec_t('sleep_speed', V_REAL, 1, 0), var_spec_t('sleep_time', V_REAL, 1, 0)]
+    var_spec_t('sleep_speed', V_REAL, 1, 0), var_spec_t('sleep_time', V_REAL, 1, 0), &
+    var_spec_t('restitution_rule', V_CHARACTER, 1, len(contact_default%restitution_rule)), &
+    var_spec_t('friction_rule', V_CHARACTER, 1, len(contact_default%friction_rule))]
 
 contains
 
@@ -25,9 +31,12 @@ contains
     type(error_t), intent(inout) :: err
     type(group_input_t) :: g
     real(dp) :: restitution, friction, min_separation, rest_speed, sleep_speed, sleep_time
+    character(len=len(config%restitution_rule)) :: restitution_rule
+    character(len=len(config%friction_rule)) :: friction_rule
     integer :: ios
     character(len=512) :: msg
-    namelist /contact/ restitution, friction, min_separation, rest_speed, sleep_speed, sleep_time
+    namelist /contact/ restitution, friction, min_separation, rest_speed, sleep_speed, sleep_time, &
+      restitution_rule, friction_rule
 
     call open_group(src, group, contact_vars, '&contact', g)
     call prepare_group(g, err)
@@ -38,6 +47,8 @@ contains
     rest_speed = config%rest_speed
     sleep_speed = config%sleep_speed
     sleep_time = config%sleep_time
+    restitution_rule = config%restitution_rule
+    friction_rule = config%friction_rule
     msg = ''
     read (g%text, nml=contact, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -50,6 +61,8 @@ contains
     config%rest_speed = rest_speed
     config%sleep_speed = sleep_speed
     config%sleep_time = sleep_time
+    config%restitution_rule = lower(adjustl(restitution_rule))
+    config%friction_rule = lower(adjustl(friction_rule))
 
     call require_finite(g, err, 'restitution', [restitution])
     call require_finite(g, err, 'friction', [friction])
@@ -73,6 +86,15 @@ contains
                 real_text(sleep_speed))
     else if (sleep_time <= 0.0_dp) then
       call fail(g, err, 'sleep_time', 'sleep_time must be > 0 s, got '//real_text(sleep_time))
+    else if (config%restitution_rule /= RULE_MIN .and. config%restitution_rule /= RULE_MAX .and. &
+             config%restitution_rule /= RULE_MEAN) then
+      ! (no geometric mean for e: it is the rule for friction, where a zero must win)
+      call fail(g, err, 'restitution_rule', 'unknown restitution_rule '''//trim(restitution_rule)// &
+                ''' (known: '''//RULE_MIN//''', '''//RULE_MAX//''', '''//RULE_MEAN//''')')
+    else if (config%friction_rule /= RULE_GEOMETRIC .and. config%friction_rule /= RULE_MIN .and. &
+             config%friction_rule /= RULE_MAX .and. config%friction_rule /= RULE_MEAN) then
+      call fail(g, err, 'friction_rule', 'unknown friction_rule '''//trim(friction_rule)//''' (known: '''// &
+                RULE_GEOMETRIC//''', '''//RULE_MIN//''', '''//RULE_MAX//''', '''//RULE_MEAN//''')')
     end if
   end subroutine read_contact_group
 
@@ -94,6 +116,8 @@ contains
     if (config%sleep_speed == DECK_AUTO) note = '[m/s] -1: auto, rest_speed/100'
     call put_real(unit, 'sleep_speed', [config%sleep_speed], note)
     call put_real(unit, 'sleep_time', [config%sleep_time], '[s]')
+    call put_text(unit, 'restitution_rule', config%restitution_rule)
+    call put_text(unit, 'friction_rule', config%friction_rule)
     write (unit, '(a)') '/'
   end subroutine write_contact_group
 
