@@ -3,7 +3,7 @@ module string_utils
   use kinds, only: dp, i8
   implicit none
   private
-  public :: str, lower, dirname, join_path, is_absolute_path, starts_with, ends_with
+  public :: str, lower, dirname, join_path, is_absolute_path, starts_with, ends_with, join_reals
 
   interface str
     module procedure str_int, str_int8, str_real, str_logical
@@ -105,5 +105,18 @@ contains
       path = trim(base)//'/'//trim(relative)
     end if
   end function join_path
+
+  !> Reals written with fmt and joined by separator: "1.0E+00, 2.0E+00, 3.0E+00".
+  function join_reals(values, fmt, separator) result(text)
+    real(dp), intent(in) :: values(:)
+    character(len=*), intent(in) :: fmt, separator
+    character(len=:), allocatable :: text
+    integer :: i
+    text = ''
+    do i = 1, size(values)
+      if (i > 1) text = text//separator
+      text = text//str(values(i), fmt)
+    end do
+  end function join_reals
 
 end module string_utils

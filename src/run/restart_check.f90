@@ -15,10 +15,11 @@ module restart_check
   use kinds, only: dp, i8
   use constants, only: line_length
   use error_status, only: error_t, ERR_CHECKPOINT
-  use string_utils, only: str
+  use string_utils, only: str, join_reals
   use input_config, only: deck_t
   use shape, only: shape_library_t
   use body_state, only: bodies_t
+  use body_labels, only: body_label
   use checkpoint_meta, only: checkpoint_meta_t
   implicit none
   private
@@ -84,7 +85,7 @@ contains
       end if
       if (len(what) > 0) then
         call err%set(ERR_CHECKPOINT, "checkpoint '"//trim(path)//"' holds a state no run can continue from: "// &
-                     body_name(deck, bodies, i)//': '//what)
+                     body_label(deck, bodies, i)//': '//what)
         return
       end if
     end do
@@ -143,11 +144,11 @@ contains
         what = 'its mass is '//str(saved%mass(j), '(es23.16)')//' kg in the checkpoint, '// &
                str(built%mass(i), '(es23.16)')//' kg in the deck'
       else if (.not. built%fixed(i) .and. any([(differs(saved%inertia(s, j), built%inertia(s, i)), s=1, 3)])) then
-        what = 'its principal moments are '//triple(saved%inertia(:, j))//' kg m^2 in the checkpoint, '// &
-               triple(built%inertia(:, i))//' in the deck'
+        what = 'its principal moments are '//join_reals(saved%inertia(:, j), '(es12.5)', ', ')// &
+               ' kg m^2 in the checkpoint, '//join_reals(built%inertia(:, i), '(es12.5)', ', ')//' in the deck'
       end if
       if (len(what) > 0) then
-        call err%set(ERR_CHECKPOINT, where//body_name(deck, built, i)//': '//what)
+        call err%set(ERR_CHECKPOINT, where//body_label(deck, built, i)//': '//what)
         return
       end if
     end do
@@ -299,24 +300,6 @@ contains
     differs = .not. (abs(a - b) <= property_rtol*max(abs(a), abs(b)))
   end function differs
 
-  function triple(v) result(text)
-    real(dp), intent(in) :: v(3)
-    character(len=:), allocatable :: text
-    text = str(v(1), '(es12.5)')//', '//str(v(2), '(es12.5)')//', '//str(v(3), '(es12.5)')
-  end function triple
 
-  function body_name(deck, bodies, i) result(text)
-    type(deck_t), intent(in) :: deck
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(in) :: i
-    character(len=:), allocatable :: text
-    integer :: k
-    k = bodies%group_id(i)
-    if (k >= 1 .and. k <= deck%n_bodies) then
-      text = 'body '//str(bodies%gid(i))//" ('"//trim(deck%bodies(k)%name)//"', &body #"//str(k)//')'
-    else
-      text = 'body '//str(bodies%gid(i))
-    end if
-  end function body_name
 
 end module restart_check

@@ -6,11 +6,12 @@
 module startup_report
   use kinds, only: dp, i8
   use error_status, only: error_t
-  use string_utils, only: str
+  use string_utils, only: str, join_reals
   use quaternion, only: quat_to_matrix
   use input_config, only: deck_t
   use shape, only: shape_library_t
   use body_state, only: bodies_t
+  use body_labels, only: body_label
   use body_builder, only: build_shapes, build_bodies, count_bodies
   use overlap_check, only: check_initial_overlaps
   use collision_stage, only: collision_stage_t, smallest_moving_extent
@@ -74,7 +75,7 @@ contains
     end do
     if (pair(1) > 0) then
       write (unit, '(a)') '! smallest initial gap '//str(gap, '(es10.3)')//' m, between '// &
-        name_of(deck, bodies, pair(1))//' and '//name_of(deck, bodies, pair(2))
+        body_label(deck, bodies, pair(1))//' and '//body_label(deck, bodies, pair(2))
     else
       reach = collisions%box_size
       write (unit, '(a)') '! smallest initial gap: no two bodies (not both fixed) within one grid box ('// &
@@ -91,15 +92,15 @@ contains
     associate (s => shapes%shapes(bodies%shape_id(i)))
       axes = quat_to_matrix(bodies%q(:, i))
       if (bodies%fixed(i)) then
-        write (unit, '(a)') '!   '//name_of(deck, bodies, i)//': '//s%label//', fixed, volume '// &
-          str(s%volume, '(es12.5)')//' m^3, centre '//triple(bodies%x(:, i))
+        write (unit, '(a)') '!   '//body_label(deck, bodies, i)//': '//s%label//', fixed, volume '// &
+          str(s%volume, '(es12.5)')//' m^3, centre '//join_reals(bodies%x(:, i), '(es11.4)', ' ')
       else
-        write (unit, '(a)') '!   '//name_of(deck, bodies, i)//': '//s%label//', volume '// &
+        write (unit, '(a)') '!   '//body_label(deck, bodies, i)//': '//s%label//', volume '// &
           str(s%volume, '(es12.5)')//' m^3, mass '//str(bodies%mass(i), '(es12.5)')//' kg'
-        write (unit, '(a)') '!       centre of mass '//triple(bodies%x(:, i))//'; principal moments '// &
-          triple(bodies%inertia(:, i))
-        write (unit, '(a)') '!       principal axes ('//triple(axes(:, 1))//'), ('//triple(axes(:, 2))//'), ('// &
-          triple(axes(:, 3))//')'
+        write (unit, '(a)') '!       centre of mass '//join_reals(bodies%x(:, i), '(es11.4)', ' ')// &
+          '; principal moments '//join_reals(bodies%inertia(:, i), '(es11.4)', ' ')
+        write (unit, '(a)') '!       principal axes ('//join_reals(axes(:, 1), '(es11.4)', ' ')//'), ('// &
+          join_reals(axes(:, 2), '(es11.4)', ' ')//'), ('//join_reals(axes(:, 3), '(es11.4)', ' ')//')'
       end if
     end associate
   end subroutine describe_body
@@ -143,19 +144,6 @@ contains
     call grid%free()
   end subroutine smallest_gap
 
-  function name_of(deck, bodies, i) result(text)
-    type(deck_t), intent(in) :: deck
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(in) :: i
-    character(len=:), allocatable :: text
-    text = 'body '//str(bodies%gid(i))//" '"//trim(deck%bodies(bodies%group_id(i))%name)//"' (&body #"// &
-           str(bodies%group_id(i))//')'
-  end function name_of
 
-  function triple(v) result(text)
-    real(dp), intent(in) :: v(3)
-    character(len=:), allocatable :: text
-    text = str(v(1), '(es11.4)')//' '//str(v(2), '(es11.4)')//' '//str(v(3), '(es11.4)')
-  end function triple
 
 end module startup_report
