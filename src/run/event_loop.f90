@@ -61,6 +61,10 @@ module event_loop
     integer(i8) :: trajectory_changes = 0  !< anchors taken after a change (version increments)
     integer(i8) :: enters = 0            !< free pairs that came within reach of a contact pass
     integer(i8) :: joins = 0             !< free bodies that joined an island at its next step
+    ! Wall time by kind of event [s] (the summary's time by phase):
+    real(dp) :: wall_detection = 0.0_dp  !< pair events without an impact (certificates) and box crossings
+    real(dp) :: wall_impacts = 0.0_dp    !< pair events that ended in an impact (certificate + impulses)
+    real(dp) :: wall_islands = 0.0_dp    !< island steps (contact passes of resting islands)
   end type event_stats_t
 
   type :: event_loop_t
@@ -225,8 +229,11 @@ contains
     type(error_t), intent(inout) :: err
     real(dp) :: t_pair, t_body, t_island, t
     integer :: handle
+    integer(i8) :: clock, clock_rate, impacts_before
     self%t_hard = t_hard
+    call system_clock(count_rate=clock_rate)
     do
+      call system_clock(clock)
       t_pair = self%pair_queue%top_time()
       t_body = self%body_queue%top_time()
       t_island = self%island_queue%top_time()
@@ -234,16 +241,24 @@ contains
         if (t_pair <= t_body) then
           call self%pair_queue%pop(handle, t)
           self%time = max(self%time, t)
+          impacts_before = self%stats%impacts
           call pair_event(self, stage, bodies, shapes, flight, handle, t, err)
+          if (self%stats%impacts > impacts_before) then
+            self%stats%wall_impacts = self%stats%wall_impacts + elapsed(clock, clock_rate)
+          else
+            self%stats%wall_detection = self%stats%wall_detection + elapsed(clock, clock_rate)
+          end if
         else
           call self%body_queue%pop(handle, t)
           self%time = max(self%time, t)
           call crossing_event(self, stage, bodies, shapes, flight, handle, t, err)
+          self%stats%wall_detection = self%stats%wall_detection + elapsed(clock, clock_rate)
         end if
       else if (t_island < t_stop) then
         call self%island_queue%pop(handle, t)
         self%time = max(self%time, t)
         call island_end(self, stage, bodies, shapes, flight, handle, t, err)
+        self%stats%wall_islands = self%stats%wall_islands + elapsed(clock, clock_rate)
       else
         exit
       end if
@@ -251,6 +266,14 @@ contains
     end do
     self%time = t_stop
   end subroutine loop_run_until
+
+  !> Wall seconds since clock (system_clock counts at clock_rate per second).
+  real(dp) function elapsed(clock, clock_rate)
+    integer(i8), intent(in) :: clock, clock_rate
+    integer(i8) :: now
+    call system_clock(now)
+    elapsed = real(now - clock, dp)/real(clock_rate, dp)
+  end function elapsed
 
 
   !> Every moving body evaluated at t into bodies (frames, history rows, checkpoints).

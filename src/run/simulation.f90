@@ -729,9 +729,18 @@ contains
     write (*, '(a,es10.3,a,es10.3,a)') '  integration time     ', self%integration_wall, ' s (', &
       real(self%n_total, dp)*real(self%step - self%first_step, dp)/max(self%integration_wall, tiny(1.0_dp)), &
       ' body updates per s)'
-    write (*, '(a)') '  time by phase        contact pass '//str(self%contact_pass_wall, '(es9.3)')// &
-      ' s, detection '//str(self%detection_wall, '(es9.3)')//' s, impacts and sleeping '// &
-      str(self%resolve_wall, '(es9.3)')//' s'
+    if (self%local) then
+      associate (ev => self%events%stats)
+        write (*, '(a)') '  time by phase        island steps (contact passes) '//str(ev%wall_islands, '(es9.3)')// &
+          ' s, impacts '//str(ev%wall_impacts, '(es9.3)')//' s, certificates and box crossings '// &
+          str(ev%wall_detection, '(es9.3)')//' s, evaluating bodies for outputs '// &
+          str(self%integration_wall, '(es9.3)')//' s'
+      end associate
+    else
+      write (*, '(a)') '  time by phase        contact pass '//str(self%contact_pass_wall, '(es9.3)')// &
+        ' s, detection '//str(self%detection_wall, '(es9.3)')//' s, impacts and sleeping '// &
+        str(self%resolve_wall, '(es9.3)')//' s'
+    end if
     write (*, '(a,i0,a,i0,a)') '  bodies               ', self%n_total, ' in ', self%shapes%n_shapes, ' distinct shapes'
     if (events > 0) write (*, '(a)') &
       '  (with contacts, energy is an invariant only for e = 1, momentum and angular momentum only '// &
