@@ -21,6 +21,8 @@ module cell_grid
 
   !> |box coordinate| limit, far from int64 overflow in floor() and +-1.
   real(dp), parameter :: MAX_BOX_COORD = 2.0_dp**60
+  !> Bits of a box coordinate that enter its hash (2^30 * 8.4e7 * 3 < 2^63).
+  integer(i8), parameter :: KEY_MASK = 2_i8**30 - 1_i8
 
   type :: cell_t
     integer :: n = 0
@@ -137,8 +139,11 @@ contains
     end if
     self%lower(:, i) = lower
     self%upper(:, i) = upper
-    self%lo(:, i) = int(floor(lower*self%inv_h), i8)
-    self%hi(:, i) = int(floor(upper*self%inv_h), i8)
+    ! floor(..., kind=i8), not int(floor(...), i8): the default-kind floor overflows past
+    ! 2^31 boxes (a 1e4 m body in 2e-6 m boxes), giving hi < lo, and the body would be
+    ! listed nowhere (neither in boxes nor as large) and tunnelled through.
+    self%lo(:, i) = floor(lower*self%inv_h, kind=i8)
+    self%hi(:, i) = floor(upper*self%inv_h, kind=i8)
     self%placed(i) = .true.
     self%placements = self%placements + 1
     if (any(self%hi(:, i) - self%lo(:, i) + 1 > self%max_span)) then
@@ -255,8 +260,11 @@ contains
     integer(i8), intent(in) :: key(3)
     integer, intent(in) :: table_size
     integer(i8) :: h
-    ! large odd multipliers, then the low bits (table sizes are powers of two)
-    h = key(1)*73856093_i8 + key(2)*19349669_i8 + key(3)*83492791_i8
+    ! large odd multipliers, then the low bits (table sizes are powers of two); the low 30
+    ! bits of each coordinate only, so that the products cannot overflow int64 for
+    ! coordinates up to MAX_BOX_COORD (keys are compared in full: this only spreads them)
+    h = iand(key(1), KEY_MASK)*73856093_i8 + iand(key(2), KEY_MASK)*19349669_i8 + &
+        iand(key(3), KEY_MASK)*83492791_i8
     h = ieor(h, ishft(h, -17))
     s = int(iand(h, int(table_size - 1, i8))) + 1
   end function hash_of

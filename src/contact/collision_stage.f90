@@ -37,7 +37,7 @@ module collision_stage
   use sleeping, only: sleep_t
   implicit none
   private
-  public :: collision_stage_t, collision_stats_t, smallest_moving_extent, turning_reach
+  public :: collision_stage_t, collision_stats_t, smallest_moving_extent, turning_reach, min_separation_for
 
   type :: collision_stats_t
     integer(i8) :: events = 0                  !< steps that ended at a contact
@@ -147,6 +147,21 @@ contains
     end do
   end function smallest_moving_extent
 
+  !> The minimum separation of a run [m]: the deck's, or auto, 1e-4 of smallest (the
+  !> smallest moving body's extent over every rank [m]; huge() when nothing moves).
+  pure real(dp) function min_separation_for(deck, smallest) result(target)
+    type(deck_t), intent(in) :: deck
+    real(dp), intent(in) :: smallest
+    target = deck%contact%min_separation
+    if (target <= 0.0_dp) then
+      if (smallest >= huge(1.0_dp)) then
+        target = 1.0e-4_dp   ! nothing moves: the box of 1 m below
+      else
+        target = 1.0e-4_dp*smallest   ! auto: docs/input.md
+      end if
+    end if
+  end function min_separation_for
+
   !> smallest_extent: smallest_moving_extent over every rank [m] (default: this rank's).
   subroutine stage_init(self, deck, shapes, bodies, err, smallest_extent)
     class(collision_stage_t), intent(inout) :: self
@@ -161,9 +176,8 @@ contains
     else
       smallest = smallest_moving_extent(shapes, bodies)
     end if
+    self%target = min_separation_for(deck, smallest)
     if (smallest >= huge(1.0_dp)) smallest = 1.0_dp   ! nothing moves: any box will do
-    self%target = deck%contact%min_separation
-    if (self%target <= 0.0_dp) self%target = 1.0e-4_dp*smallest   ! auto: docs/input.md
     ! The advancement stops within 10% of the minimum separation above it; contact points
     ! are all features within one minimum separation of the closest one.
     self%tolerance = 0.1_dp*self%target

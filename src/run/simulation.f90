@@ -17,7 +17,8 @@ module simulation
   use deck_reader, only: effective_deck_lines
   use conservation, only: system_totals_t, compute_totals
   use overlap_check, only: check_initial_overlaps
-  use collision_stage, only: collision_stage_t, smallest_moving_extent
+  use resolution_check, only: check_position_resolution
+  use collision_stage, only: collision_stage_t, smallest_moving_extent, min_separation_for
   use event_loop, only: event_loop_t
   use newmark_integrator, only: free_flight_stats_t
   use free_flight, only: free_flight_t
@@ -127,6 +128,11 @@ contains
       call check_initial_overlaps(deck, self%shapes, everyone, err)
       if (err%failed()) return
     end if
+    ! (at a restart too: the bodies may have gone far from the origin since the start)
+    call check_position_resolution(deck, self%shapes, everyone, &
+                                   min_separation_for(deck, smallest_moving_extent(self%shapes, everyone)), &
+                                   deck%contact%min_separation <= 0.0_dp, err)
+    if (err%failed()) return
     ! Owners: contiguous id blocks when no two bodies can touch before t_end, otherwise
     ! every body on rank 0 (contacts across ranks need the domain decomposition).
     contacts = .false.

@@ -14,6 +14,7 @@ module startup_report
   use body_labels, only: body_label
   use body_builder, only: build_shapes, build_bodies, count_bodies
   use overlap_check, only: check_initial_overlaps
+  use resolution_check, only: check_position_resolution
   use collision_stage, only: collision_stage_t, smallest_moving_extent
   use bucket_grid, only: bucket_grid_t
   use pair_geometry, only: pair_gap, bounding_sphere_boxes
@@ -48,6 +49,8 @@ contains
     if (err%failed()) return
     ! The grid box and the minimum separation are checked against the bodies here.
     call collisions%init(deck, shapes, bodies, err, smallest_extent=smallest_moving_extent(shapes, bodies))
+    if (err%failed()) return
+    call check_position_resolution(deck, shapes, bodies, collisions%target, deck%contact%min_separation <= 0.0_dp, err)
     if (err%failed()) return
     call choose_event_loop(deck, local, err)
     if (err%failed()) return

@@ -123,6 +123,26 @@ expect_error([ok_deck, "--restart"], ["--restart needs"], "--restart without a f
 expect_error([deck("separation.nml", good_run + "&contact min_separation = 0.1 /\n"
                    "&body name = 'ball', shape = 'sphere', radius = 0.1, mass = 1.0 /\n")],
              ["separation.nml", "&contact", "min_separation", "too large", "below"], "min_separation of a body size")
+# A minimum separation finer than doubles resolve where the bodies are (resolution_check:
+# 4 spacings of the largest coordinate) is refused, naming both bodies and the size ratio:
+# a 1e-8 m grain on a 1e4 m planet (auto 2e-12 m < 4 spacing(2e4 m) = 1.46e-11 m; it broke
+# the min_separation/2 floor in both loops), and an explicit 1e-7 m at |x| = 1e9 m
+# (spacing 1.2e-7 m); also under --check. 1e-7 m on 1e4 m (5.5 spacings) runs:
+# check_stress.py scales covers 1e-6 m.
+scale_text = (good_run + "&body name = 'planet', shape = 'sphere', radius = 1.0e4, density = 1000, "
+              "position = 0, 0, -1.0e4, fixed = .true. /\n"
+              "&body name = 'grain', shape = 'sphere', radius = 1.0e-8, density = 1000, position = 0, 0, 1.0e-3 /\n")
+for args in ([deck("scales.nml", scale_text)], [deck("scales_check.nml", scale_text), "--check"]):
+    expect_error(args, ["&contact", "min_separation", "2.000E-12 m (auto", "&body #1 'planet'", "&body #2 'grain'",
+                        "size ratio 1.0E+12", "3.638E-12 m apart", "at least 1.455E-11 m"],
+                 f"min_separation below position resolution ({' '.join(os.path.basename(a) for a in args)})")
+expect_error([deck("far.nml", good_run + "&contact min_separation = 1.0e-7 /\n"
+                   "&body name = 'far', shape = 'sphere', radius = 1.0e-3, mass = 1.0, position = 1.0e9, 0, 0 /\n")],
+             ["far.nml", "min_separation = 1.000E-07 m (&contact min_separation)", "&body #1 'far'", "1.000E+09 m"],
+             "explicit min_separation below position resolution far from the origin")
+proc = subprocess.run([exe, deck("scales_ok.nml", scale_text.replace("1.0e-8", "1.0e-7")), "--check"],
+                      capture_output=True, text=True, cwd=work)
+c.check(proc.returncode == 0, f"a 1e-7 m grain on the 1e4 m planet passes the checks: {proc.stderr.strip()}")
 # Bodies overlapping at the start are refused, naming both (closest-point overlap test).
 expect_error([deck("spheres.nml", good_run + "&body name = 'a', shape = 'sphere', radius = 1.0, mass = 1.0 /\n"
                    "&body name = 'b', shape = 'sphere', radius = 1.0, mass = 1.0, position = 1.5, 0, 0 /\n")],

@@ -10,16 +10,17 @@
               finished within the CTest timeout.
   scales      a 1e-6 m sphere dropped on a fixed 1e4 m sphere (top at z = 0), e = 0.5, and a
               1 m sphere beside it (the auto min_separation comes from the smallest body): contact
-              found, no gap below min_separation/2, the tiny ball ends at rest on the huge one.
+              found, no gap below min_separation/2, the tiny ball ends at rest on the huge one;
+              then the 1e-6 m sphere on a fixed 2e4 m box floor (top at z = 0): contact found,
+              never inside the floor.
 
 Every case also checks the separation guarantee from the summary and that no value is NaN.
 
-KNOWN BUG (scales, local event loop): with events = 'local' (the default) the 1e-6 m sphere
-falls straight through the 1e4 m sphere (and through a 2e4 m box floor): 0 contact events,
-0 pair certificates, 12262 box crossings, final gap -1.1e-2 m. The global loop (events =
-'global') finds the contact (4 events, smallest gap 2.095e-10 m for min_separation 2e-10 m).
-A ratio of 1e8 (r = 1e-6 on R = 100, or 1e-3 on 1e4) works in both loops. The case runs with
-LOOP = global (passes) and LOOP = local (fails; registered WILL_FAIL until fixed).
+Fixed bug (scales, local event loop): the local loop's grid (cell_grid) computed box
+coordinates with a default-kind floor(), which overflows past 2^31 boxes: the 1e4 m body in
+2e-6 m boxes (5e9 boxes) got an empty box range, was listed nowhere, and the 1e-6 m sphere
+fell through it (0 contact events, 0 pair certificates). Both loops must find the contact:
+the case runs with LOOP = global and LOOP = local.
 
 Usage: check_stress.py CASE EXE WORKDIR [LOOP]"""
 import math
@@ -160,6 +161,19 @@ elif case == "scales":
     c.check(float(gaps_dust[-1]) < 10 * 2e-4 * r_tiny, f"dust at rest on the planet: final gap {gaps_dust[-1]:.3e} m")
     c.check(float(np.linalg.norm(vel[-1, 1])) < 1e-6, f"dust at rest: |v| {np.linalg.norm(vel[-1, 1]):.2e} m/s")
     c.check(wall < 60, f"finished in {wall:.1f} s (< 60 s)")
+    proc_b, out_b, h_b, wall_b = run_case("scales_box", (
+        "&run title = 'scales 1e-6 m on a 2e4 m box', t_end = 0.05, dt_max = 1.0e-3, gravity = 0, 0, -9.81 /\n"
+        f"&integrator events = '{loop}' /\n"
+        "&contact restitution = 0.5 /\n&output interval = 0.005 /\n"
+        f"&body name = 'floor', shape = 'box', size = {2 * r_huge!r}, {2 * r_huge!r}, {2 * r_huge!r}, "
+        f"position = 0, 0, {-r_huge!r}, fixed = .true. /\n"
+        f"&body name = 'dust', shape = 'sphere', radius = {r_tiny!r}, density = 1000, position = 0, 0, {r_tiny + 1.0e-3!r} /\n"))
+    c.check(smallest_separation(proc_b) is not None, "box floor: the summary reports a smallest separation (contact found)")
+    pos_b = np.array([b["position"].reshape(-1, 3)[1] for _, b in frames(out_b)])
+    # the floor's top is z = 0: the dust's bottom never below it
+    c.check(float(np.min(pos_b[:, 2] - r_tiny)) > 0, f"box floor: dust never inside the floor (smallest gap {np.min(pos_b[:, 2] - r_tiny):.3e} m)")
+    c.check(int(h_b["events"][-1]) > 0, f"box floor: contact found: {int(h_b['events'][-1])} events")
+    print(f"scales_box: events {int(h_b['events'][-1])}, dust final gap {pos_b[-1, 2] - r_tiny:.3e} m")
     print(f"scales: events {int(h['events'][-1])}, dust final gap {gaps_dust[-1]:.3e} m, ball final gap {gaps_ball[-1]:.3e} m")
 else:
     sys.exit(f"unknown case {case}")
