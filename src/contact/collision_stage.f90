@@ -1207,6 +1207,15 @@ contains
     else
       self%zero_steps = 0
     end if
+    ! Checked here, before the returns below: a step of length 0 whose event pair is not in
+    ! the band (no contact point, nothing solved) is the same stall, and used to repeat
+    ! forever unreported.
+    if (self%zero_steps > 1000) then
+      call err%set(ERR_NUMERIC, 'collision loop stalled: 1000 steps of zero length at a persistent contact '// &
+                   'between bodies '//str(self%stalled_pair(1))//' and '//str(self%stalled_pair(2))// &
+                   ' (smallest separation '//str(self%stats%min_separation)//' m)')
+      return
+    end if
     ! Every candidate pair within the contact band joins, so touching neighbours (a cradle,
     ! a box on four corners) are solved in one simultaneous group.
     call gather_contacts(self, bodies, shapes, n_contacts)
@@ -1260,12 +1269,6 @@ contains
         if (self%log_events .and. present(time)) call log_impulse(self, bodies, i, time, v_old(:, c), w_old(:, c))
       end if
     end do
-    ! A step of length zero that changed nothing cannot be followed by another.
-    if (self%zero_steps > 1000) then
-      call err%set(ERR_NUMERIC, 'collision loop stalled: 1000 steps of zero length at a persistent contact '// &
-                   'between bodies '//str(self%stalled_pair(1))//' and '//str(self%stalled_pair(2))// &
-                   ' (smallest separation '//str(self%stats%min_separation)//' m)')
-    end if
   end subroutine stage_resolve
 
   !> One row of the event log: body i's linear and angular impulse at an event at time.

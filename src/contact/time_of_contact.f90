@@ -217,7 +217,8 @@ contains
   !> it to round-off in a few queries. Every probe stays within what the bound certifies
   !> from the last point above the aim, gap >= target, so no committed time is ever closer
   !> than the target. If the crossing lies beyond the step, the pair has no contact in it.
-  !> On return t is the crossing (or the last safe point above it when the queries ran out).
+  !> On return t is the crossing (or the last safe point above it when the queries ran out;
+  !> once bracketed, the point below the aim if the one above never reached the band).
   subroutine refine_crossing(oracle, motion, step, target, aim, tolerance, t_prev, gap_prev, t, gap, normal, result)
     class(distance_oracle_t), intent(inout) :: oracle
     type(pair_motion_t), intent(in) :: motion
@@ -227,7 +228,7 @@ contains
     type(advancement_result_t), intent(inout) :: result
     !> Queries beyond the advancement's own; the secant converges superlinearly.
     integer, parameter :: max_refinements = 60
-    real(dp) :: lo, g_lo, n_lo(3), lo_prev, g_lo_prev, hi, s, g_s, n_s(3), limit, slope, eps_gap
+    real(dp) :: lo, g_lo, n_lo(3), lo_prev, g_lo_prev, hi, g_hi, n_hi(3), s, g_s, n_s(3), limit, slope, eps_gap
     real(dp) :: f_lo, f_hi       ! regula falsi: gap - aim at lo and hi, Illinois-weighted
     type(closing_bound_t) :: bound_lo
     logical :: bracketed, beyond
@@ -247,6 +248,8 @@ contains
     g_lo_prev = gap_prev
     bracketed = .false.
     hi = huge(1.0_dp)
+    g_hi = huge(1.0_dp)
+    n_hi = normal
     f_lo = g_lo - aim
     f_hi = 0.0_dp
     side = 0
@@ -260,6 +263,8 @@ contains
       n_lo = normal
       f_lo = g_lo - aim
       hi = t
+      g_hi = gap
+      n_hi = normal
       f_hi = gap - aim
       bracketed = .true.
       side = -1
@@ -320,6 +325,8 @@ contains
         end if
       else
         hi = s
+        g_hi = g_s
+        n_hi = n_s
         f_hi = g_s - aim
         if (bracketed .and. side == -1) f_lo = 0.5_dp*f_lo
         side = -1
@@ -331,6 +338,19 @@ contains
     t = lo
     gap = g_lo
     normal = n_lo
+    if (bracketed .and. gap > target + tolerance) then
+      ! The search stopped before lo came into the band: its probes stalled at the gap's
+      ! round-off (which can exceed eps_gap: 4e-15 m for a ball 3 m from a floor's centre,
+      ! every probe near hi measuring the same gap), or ran out. hi is a measured point
+      ! below the aim and certified (where the advancement itself landed, or a probe within
+      ! the bound from a point above the aim), so the contact is there. Answering lo would
+      ! say "no contact, safe only up to lo", and lo may be where the advancement started:
+      ! the pair was then found capped at time 0 again and again, an impact that changed
+      ! nothing (local loop: "collision loop stalled") or a step of length 0 (global loop).
+      t = hi
+      gap = g_hi
+      normal = n_hi
+    end if
     if (beyond .or. gap > target + tolerance) then
       ! the crossing is beyond the step, or not certified yet: no contact, and the pair is
       ! safe up to t (capped when that is before the step's end)

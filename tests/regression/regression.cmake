@@ -96,6 +96,11 @@ if(RICOCHET_USE_HDF5)
   # The local event loop against the global one on gases of 200 spheres and 200 cubes (5 s)
   ricochet_python_case(local_events check_local_events.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_local_events)
+  # Elastic (e = 1) ball lattices on a floor, both loops: the 10 x 10 deck that stalled the
+  # time of contact ("collision loop stalled"), and 900 balls landing at once that conserve
+  # energy to 1e-12 (check_elastic_lattice.py; 8 s)
+  ricochet_python_case(elastic_lattice check_elastic_lattice.py $<TARGET_FILE:ricochet>
+                       ${CMAKE_CURRENT_BINARY_DIR}/run/regression_elastic_lattice)
   # A chain A -> B -> C (a stale bound would tunnel) and a free cluster never stepped (2 s)
   ricochet_python_case(local_cases check_local_cases.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_local_cases)

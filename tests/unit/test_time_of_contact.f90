@@ -32,10 +32,39 @@ contains
 
 end module sphere_pair_oracle
 
+!> A ball falling at constant speed onto a floor, its gap measured only to a quantum q (the
+!> round-off of a sphere-box gap a few metres from the box's centre, 4e-15 m in a 30 x 30
+!> deck), minus `offset`: gaps within q/2 of the aim all read aim - offset.
+module quantized_fall_oracle
+  use kinds, only: dp
+  use time_of_contact, only: distance_oracle_t
+  implicit none
+  private
+  public :: quantized_fall_t
+
+  type, extends(distance_oracle_t) :: quantized_fall_t
+    real(dp) :: gap0, speed, aim, quantum, offset
+  contains
+    procedure :: gap_at => quantized_gap_at
+  end type quantized_fall_t
+
+contains
+
+  subroutine quantized_gap_at(self, t, gap, normal)
+    class(quantized_fall_t), intent(inout) :: self
+    real(dp), intent(in) :: t
+    real(dp), intent(out) :: gap, normal(3)
+    gap = self%aim - self%offset + self%quantum*anint((self%gap0 - self%speed*t - self%aim)/self%quantum)
+    normal = [0.0_dp, 0.0_dp, 1.0_dp]
+  end subroutine quantized_gap_at
+
+end module quantized_fall_oracle
+
 program test_time_of_contact
   use kinds, only: dp
   use time_of_contact
   use sphere_pair_oracle, only: sphere_pair_t
+  use quantized_fall_oracle, only: quantized_fall_t
   use assertions
   implicit none
 
@@ -160,6 +189,34 @@ program test_time_of_contact
     ! the refinement's own cost: a secant converges in a few queries, to round-off of the gap
     call check(queries(1) - res%iterations <= 8, 'canonical: the refinement adds at most 8 queries')
     write (*, '(a,i0,a,i0)') 'canonical: queries refined ', queries(1), ', unrefined ', res%iterations
+  end block
+
+  ! 8. Gap round-off above the refinement's own resolution (eps_gap = 1e-10 tol = 1e-16 m
+  !    here; the quantum is 1e-14 m, the order of the 4e-15 m measured in the deck): the
+  !    advancement lands 1.2e-16 m below the aim (a point it certified, in the band), and
+  !    every probe near the crossing reads that same gap (the values of the failing run:
+  !    14 mm closing at 4 m/s, capped at t = 0 after 5 queries before the fix).
+  !    The refinement must answer a contact there, not "no contact, safe up to t = 0": that
+  !    answer made a 30 x 30 deck of e = 1 balls re-find one ball-floor pair at one time
+  !    until "collision loop stalled" (local loop), or loop forever (global loop).
+  block
+    type(quantized_fall_t) :: fall
+    real(dp), parameter :: delta = 1.0e-5_dp, tol = 1.0e-6_dp
+    type(pair_motion_t) :: m
+    fall%aim = delta + 0.5_dp*tol
+    fall%gap0 = 1.4e-2_dp
+    fall%speed = 4.0_dp
+    fall%quantum = 1.0e-14_dp
+    fall%offset = 1.2e-16_dp
+    m%v_b = [0.0_dp, 0.0_dp, -fall%speed]
+    call fall%gap_at(0.0_dp, gap0, n0)
+    call advance_pair(fall, m, gap0, n0, 1.0e-2_dp, delta, tol, 0.5_dp*delta, 1.0e-9_dp, 16, res)
+    t_exact = (fall%gap0 - fall%aim)/fall%speed
+    call check(res%contact, 'quantized gap: contact found')
+    call check(.not. res%capped .and. res%time > 0.0_dp, 'quantized gap: not capped at the start')
+    call check(res%gap >= delta .and. res%gap <= delta + tol, 'quantized gap: gap in the band')
+    ! the quantum over the speed is 2.5e-15 s: the crossing to that, with room to spare
+    call check_close(res%time, t_exact, 0.0_dp, 'quantized gap: time of contact', atol=1.0e-14_dp)
   end block
   call test_finish()
 
