@@ -46,7 +46,7 @@ module domain
   integer, parameter :: MAX_HALO_RINGS = 2    !< rings are clamped to 0..2
   !> Directions of the staged exchange, in the order the messages are sent.
   integer, parameter :: MINUS_X = 1, PLUS_X = 2, MINUS_Y = 3, PLUS_Y = 4, MINUS_Z = 5, PLUS_Z = 6
-  !> |box coordinate| limit, as in cell_grid: far from int64 overflow.
+  !> |box coordinate| limit: box indices stay exact as doubles (box_of clamps in reals).
   real(dp), parameter :: MAX_BOX_COORD = 2.0_dp**52
   character(len=1), parameter :: AXIS_NAME(3) = ['x', 'y', 'z']
 
