@@ -10,7 +10,7 @@ module simulation
   use parallel_env, only: parallel_t
   use input_config, only: deck_t, EVENTS_LOCAL, EVENTS_GLOBAL, ROTATION_EXACT
   use shape, only: shape_library_t
-  use body_state, only: bodies_t
+  use body_state, only: bodies_t, copy_row
   use body_builder, only: build_shapes, build_bodies, count_bodies
   use ownership, only: contact_possible, owned_block
   use restart_check, only: check_restored_state, check_same_bodies, compare_decks, deck_change_t
@@ -255,7 +255,7 @@ contains
     if (err%failed()) return
     do j = 1, saved%n_owned
       i = int(saved%gid(j))
-      call copy_body(saved, j, bodies, i)
+      call copy_row(saved, j, bodies, i)
     end do
     call check_initial_overlaps(self%deck, self%shapes, bodies, err)
     if (err%failed()) then
@@ -292,7 +292,7 @@ contains
     n = int(max(0_i8, last - first + 1))
     call owned%allocate(n)
     do i = 1, n
-      call copy_body(all, int(first) + i - 1, owned, i)
+      call copy_row(all, int(first) + i - 1, owned, i)
     end do
     owned%n_owned = n
     owned%n_ghost = 0
@@ -338,27 +338,6 @@ contains
       if (meta%counter_names(k) == name) counter = meta%counters(k)
     end do
   end function counter
-
-  subroutine copy_body(from, i, to, j)
-    type(bodies_t), intent(in) :: from
-    integer, intent(in) :: i, j
-    type(bodies_t), intent(inout) :: to
-    to%gid(j) = from%gid(i)
-    to%shape_id(j) = from%shape_id(i)
-    to%group_id(j) = from%group_id(i)
-    to%fixed(j) = from%fixed(i)
-    to%asleep(j) = from%asleep(i)
-    to%mass(j) = from%mass(i)
-    to%inv_mass(j) = from%inv_mass(i)
-    to%inertia(:, j) = from%inertia(:, i)
-    to%inv_inertia(:, j) = from%inv_inertia(:, i)
-    to%x(:, j) = from%x(:, i)
-    to%q(:, j) = from%q(:, i)
-    to%v(:, j) = from%v(:, i)
-    to%w(:, j) = from%w(:, i)
-    to%a(:, j) = from%a(:, i)
-    to%alpha(:, j) = from%alpha(:, i)
-  end subroutine copy_body
 
   subroutine simulation_run(self, par, err)
     class(simulation_t), intent(inout) :: self
