@@ -3,7 +3,7 @@ module string_utils
   use kinds, only: dp, i8
   implicit none
   private
-  public :: str, lower, dirname, join_path, is_absolute_path, starts_with, ends_with, join_reals
+  public :: str, lower, dirname, join_path, is_absolute_path, starts_with, ends_with, join_reals, name_index
 
   interface str
     module procedure str_int, str_int8, str_real, str_logical
@@ -118,5 +118,22 @@ contains
       text = text//str(values(i), fmt)
     end do
   end function join_reals
+
+  !> Index of the first of names equal to name (blank-padded comparison), 0 if none: what
+  !> findloc(names, name, dim=1) means. Not findloc itself: gfortran 12 declares its
+  !> character findloc after the first call in a file, and when that call's value has
+  !> deferred length (a group name from the scan) the length goes by address and nothing
+  !> is ever found.
+  pure integer function name_index(names, name) result(found)
+    character(len=*), intent(in) :: names(:), name
+    integer :: j
+    found = 0
+    do j = 1, size(names)
+      if (names(j) == name) then
+        found = j
+        return
+      end if
+    end do
+  end function name_index
 
 end module string_utils

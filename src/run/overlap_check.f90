@@ -15,7 +15,7 @@ module overlap_check
   use pair_geometry, only: bounding_sphere_boxes
   implicit none
   private
-  public :: check_initial_overlaps
+  public :: check_initial_overlaps, nearby_pairs
 
 contains
 
@@ -28,7 +28,6 @@ contains
     type(bodies_t), intent(in) :: bodies
     type(error_t), intent(inout) :: err
     real(dp), intent(in), optional :: time
-    type(bucket_grid_t) :: grid
     real(dp), allocatable :: lower(:, :), upper(:, :), extent(:)
     integer, allocatable :: pairs(:, :)
     real(dp) :: box_size
@@ -49,11 +48,7 @@ contains
     end if
     call choose_box_size(extent, 1.0_dp, box_size, err)
     if (err%failed()) return
-    call grid%init(box_size, err)
-    if (err%failed()) return
-    call grid%build(n, lower, upper, [(.false., i=1, n)], err)
-    if (err%failed()) return
-    call grid%candidate_pairs(1, [0.0_dp], pairs, n_pairs, err)
+    call nearby_pairs(shapes, bodies, box_size, pairs, n_pairs, err)
     if (err%failed()) return
     do k = 1, n_pairs
       if (static(pairs(1, k)) .and. static(pairs(2, k))) cycle   ! static scenery may touch
@@ -70,8 +65,32 @@ contains
         return
       end if
     end do
-    call grid%free()
   end subroutine check_initial_overlaps
+
+  !> The pairs of bodies whose bounding spheres lie within one grid box (of box_size [m])
+  !> of each other, from the bucket grid: the candidates of the overlap test and of the
+  !> smallest initial gap (--check).
+  subroutine nearby_pairs(shapes, bodies, box_size, pairs, n_pairs, err)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    real(dp), intent(in) :: box_size
+    integer, allocatable, intent(out) :: pairs(:, :)
+    integer, intent(out) :: n_pairs
+    type(error_t), intent(inout) :: err
+    type(bucket_grid_t) :: grid
+    real(dp), allocatable :: lower(:, :), upper(:, :)
+    integer :: n, i
+    n = bodies%n_owned
+    n_pairs = 0
+    allocate (pairs(2, 0), lower(3, n), upper(3, n))
+    call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
+    call grid%init(box_size, err)
+    if (err%failed()) return
+    call grid%build(n, lower, upper, [(.false., i=1, n)], err)
+    if (err%failed()) return
+    call grid%candidate_pairs(1, [0.0_dp], pairs, n_pairs, err)
+    call grid%free()
+  end subroutine nearby_pairs
 
   function describe(deck, bodies, i) result(text)
     type(deck_t), intent(in) :: deck

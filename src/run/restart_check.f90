@@ -15,7 +15,7 @@ module restart_check
   use kinds, only: dp, i8
   use constants, only: line_length
   use error_status, only: error_t, ERR_CHECKPOINT
-  use string_utils, only: str, join_reals
+  use string_utils, only: str, join_reals, name_index
   use input_config, only: deck_t
   use shape, only: shape_library_t
   use body_state, only: bodies_t
@@ -174,7 +174,7 @@ contains
     n_refused = 0
     refused = ''
     do i = 1, size(new_keys)
-      j = find(old_keys, new_keys(i))
+      j = name_index(old_keys, new_keys(i))
       if (j == 0) then
         n_notes = n_notes + 1
         notes(n_notes) = trim(new_shown(i))//' = '//trim(new_values(i))// &
@@ -200,7 +200,7 @@ contains
       end select
     end do
     do j = 1, size(old_keys)
-      if (find(new_keys, old_keys(j)) /= 0) cycle
+      if (name_index(new_keys, old_keys(j)) /= 0) cycle
       if (change_class(old_keys(j)) == class_refused) then
         n_refused = n_refused + 1
         refused = refused//'; '//trim(old_shown(j))//' '//trim(old_values(j))//' -> (not in this deck)'
@@ -282,18 +282,6 @@ contains
     values = values(1:n)
     shown = shown(1:n)
   end subroutine split_entries
-
-  pure integer function find(keys, key)
-    character(len=*), intent(in) :: keys(:), key
-    integer :: i
-    find = 0
-    do i = 1, size(keys)
-      if (keys(i) == key) then
-        find = i
-        return
-      end if
-    end do
-  end function find
 
   pure logical function differs(a, b)
     real(dp), intent(in) :: a, b

@@ -13,11 +13,10 @@ module startup_report
   use body_state, only: bodies_t
   use body_labels, only: body_label
   use body_builder, only: build_shapes, build_bodies, count_bodies
-  use overlap_check, only: check_initial_overlaps
+  use overlap_check, only: check_initial_overlaps, nearby_pairs
   use resolution_check, only: check_position_resolution
   use collision_stage, only: collision_stage_t, smallest_moving_extent
-  use bucket_grid, only: bucket_grid_t
-  use pair_geometry, only: pair_gap, bounding_sphere_boxes
+  use pair_geometry, only: pair_gap
   use simulation, only: choose_event_loop
   implicit none
   private
@@ -117,8 +116,6 @@ contains
     real(dp), intent(out) :: gap
     integer, intent(out) :: pair(2)
     type(error_t), intent(inout) :: err
-    type(bucket_grid_t) :: grid
-    real(dp), allocatable :: lower(:, :), upper(:, :)
     integer, allocatable :: pairs(:, :)
     real(dp) :: g, normal(3)
     integer :: n, k, i, j, n_pairs
@@ -126,13 +123,7 @@ contains
     pair = 0
     n = bodies%n_owned
     if (n < 2) return
-    allocate (lower(3, n), upper(3, n))
-    call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
-    call grid%init(box_size, err)
-    if (err%failed()) return
-    call grid%build(n, lower, upper, [(.false., k=1, n)], err)
-    if (err%failed()) return
-    call grid%candidate_pairs(1, [0.0_dp], pairs, n_pairs, err)
+    call nearby_pairs(shapes, bodies, box_size, pairs, n_pairs, err)
     if (err%failed()) return
     do k = 1, n_pairs
       i = pairs(1, k)
@@ -144,7 +135,6 @@ contains
         pair = [min(i, j), max(i, j)]
       end if
     end do
-    call grid%free()
   end subroutine smallest_gap
 
 

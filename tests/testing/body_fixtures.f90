@@ -7,7 +7,7 @@ module body_fixtures
   use random_stream, only: random_stream_t
   implicit none
   private
-  public :: filled_bodies, row_bits, ROW_BITS_WORDS
+  public :: filled_bodies, row_bits, same_row, ROW_BITS_WORDS
 
   integer, parameter :: ROW_BITS_WORDS = 4 + 27
 
@@ -67,5 +67,12 @@ contains
              b%v(:, i), b%w(:, i), b%a(:, i), b%alpha(:, i)]
     bits(5:) = transfer(reals, bits(5:))
   end function row_bits
+
+  !> Rows i of a and j of b hold the same bits in every field.
+  logical function same_row(a, i, b, j)
+    type(bodies_t), intent(in) :: a, b
+    integer, intent(in) :: i, j
+    same_row = all(row_bits(a, i) == row_bits(b, j))
+  end function same_row
 
 end module body_fixtures

@@ -10,7 +10,7 @@ program test_body_packing
   use error_status, only: error_t
   use body_packing, only: pack_bodies, unpack_bodies, packed_words, packed_count, PACK_LAYOUT_VERSION, &
                           PACK_HEADER_WORDS, BODY_WORDS
-  use body_fixtures, only: filled_bodies, row_bits
+  use body_fixtures, only: filled_bodies, same_row
   use assertions
   implicit none
 
@@ -20,12 +20,6 @@ program test_body_packing
   call test_finish()
 
 contains
-
-  logical function same_row(a, i, b, j)
-    type(bodies_t), intent(in) :: a, b
-    integer, intent(in) :: i, j
-    same_row = all(row_bits(a, i) == row_bits(b, j))
-  end function same_row
 
   subroutine round_trip()
     type(bodies_t) :: src, dst, dst0

@@ -10,7 +10,7 @@ program test_body_rows
   use kinds, only: dp, i8
   use body_state, only: bodies_t, copy_row
   use error_status, only: error_t
-  use body_fixtures, only: filled_bodies, row_bits
+  use body_fixtures, only: filled_bodies, same_row
   use assertions
   implicit none
 
@@ -23,12 +23,6 @@ program test_body_rows
   call test_finish()
 
 contains
-
-  logical function same_row(a, i, b, j)
-    type(bodies_t), intent(in) :: a, b
-    integer, intent(in) :: i, j
-    same_row = all(row_bits(a, i) == row_bits(b, j))
-  end function same_row
 
   subroutine copy_rows()
     type(bodies_t) :: a, b

@@ -7,12 +7,12 @@ module body_group
   use kinds, only: dp, i8
   use constants, only: pi, unit_quaternion_tolerance
   use error_status, only: error_t
-  use string_utils, only: str, lower
+  use string_utils, only: str, lower, name_index
   use input_config, only: body_spec_t
   use namelist_source, only: DECK_AUTO, V_REAL, V_INTEGER, V_LOGICAL, V_CHARACTER, T_WORD, T_STRING, T_EQUALS, &
                              var_spec_t, token_t, source_t, group_t, group_input_t, open_group, tokenize, &
                              check_assignments, translate_read_error, require_finite, given, given_element, &
-                             first_element_line, var_line, fail, fail_at, suggestion, name_index, real_text, &
+                             first_element_line, var_line, fail, fail_at, suggestion, real_text, &
                              put_real, put_integer, put_logical, put_text, put_note
   use deck_paths, only: resolve_path
   implicit none

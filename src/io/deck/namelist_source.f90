@@ -12,15 +12,14 @@ module namelist_source
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INPUT, ERR_IO
-  use string_utils, only: str, lower
+  use string_utils, only: str, lower, name_index
   implicit none
   private
   public :: DECK_AUTO, V_REAL, V_INTEGER, V_LOGICAL, V_CHARACTER, T_WORD, T_STRING, T_EQUALS
   public :: var_spec_t, token_t, group_t, source_t, group_input_t
   public :: load_source, scan_groups, check_group_structure
   public :: open_group, tokenize, check_assignments, prepare_group, translate_read_error
-  public :: given, given_element, first_element_line, var_line, fail, fail_at, require_finite, suggestion, &
-            name_index
+  public :: given, given_element, first_element_line, var_line, fail, fail_at, require_finite, suggestion
   public :: real_text, put_real, put_integer, put_logical, put_text, put_note
 
   !> Value meaning "auto" (min_separation, rest_speed, output intervals, inertia: derived at
@@ -998,22 +997,6 @@ contains
     end do
   end function spec_list
 
-  !> Index of the first of names equal to name (blank-padded comparison), 0 if none: what
-  !> findloc(names, name, dim=1) means. Not findloc itself: gfortran 12 declares its
-  !> character findloc after the first call in a file, and when that call's value has
-  !> deferred length (a group name from the scan) the length goes by address and nothing
-  !> is ever found.
-  pure integer function name_index(names, name) result(found)
-    character(len=*), intent(in) :: names(:), name
-    integer :: j
-    found = 0
-    do j = 1, size(names)
-      if (names(j) == name) then
-        found = j
-        return
-      end if
-    end do
-  end function name_index
 
   ! ---------------------------------------------------------------------------------------
   ! Text helpers
