@@ -16,6 +16,12 @@
 !> into P: a column whose component orthogonal to span(E_P) is below rank_tolerance of its
 !> norm is held out until P loses a column. At a Lawson-Hanson optimum such a column's
 !> gradient is zero anyway; E x (the velocity change) is unique whatever x is chosen.
+!>
+!> Contact matrices are sparse (a contact's column touches the 6 rows of each of its two
+!> bodies, plus one row of the regularisation in the biased projection), so E is kept by
+!> columns as (row, value) lists: the gradient E^T r, the residual f - E x and the first
+!> Gram-Schmidt pass Q^T a cost the nonzeros instead of the whole m x n block (the dense
+!> products were a sixth of a 64-cube landing at small min_separation, docs/benchmarks.md).
 module nnls
   use kinds, only: dp
   use error_status, only: error_t, ERR_NUMERIC
@@ -38,6 +44,13 @@ module nnls
     integer, allocatable :: column(:)   !< column of E at passive position p
   end type passive_qr_t
 
+  !> E by columns: the nonzeros of column j are row(start(j):start(j+1)-1), val(same).
+  type :: sparse_columns_t
+    integer, allocatable :: start(:)
+    integer, allocatable :: row(:)
+    real(dp), allocatable :: val(:)
+  end type sparse_columns_t
+
 contains
 
   !> x >= 0 minimising |E x - f|; iterations counts outer steps. At the iteration cap
@@ -54,6 +67,7 @@ contains
     logical, intent(out), optional :: converged
     logical, intent(in), optional :: spread
     type(passive_qr_t) :: qr
+    type(sparse_columns_t) :: cols
     integer :: m, n, j, p, t, max_iterations, inner, kmax, blocking
     logical :: passive(size(e, 2)), blocked(size(e, 2)), added
     real(dp) :: w(size(e, 2)), z(size(e, 2)), residual(size(e, 1)), tolerance, alpha, ratio
@@ -69,11 +83,12 @@ contains
     max_iterations = 3*n + 10
     kmax = min(m, n)
     allocate (qr%q(m, kmax), qr%r(kmax, kmax), qr%qtf(kmax), qr%column(kmax))
+    call compress_columns(e, cols)
     ! Dual-feasibility tolerance relative to the problem's scale: round-off in E^T r is about
     ! eps |E| |f|; 100 eps keeps the loop from chasing noise.
     tolerance = 100.0_dp*epsilon(1.0_dp)*max(norm2(e), tiny(1.0_dp))*max(norm2(f), tiny(1.0_dp))
     residual = f
-    w = matmul(transpose(e), residual)
+    call gradient(cols, residual, w)
     outer: do
       ! The most violated column that can enter (independent of the passive ones).
       added = .false.
@@ -81,7 +96,7 @@ contains
         if (.not. any(.not. passive .and. .not. blocked .and. w > tolerance)) exit
         t = maxloc(w, dim=1, mask=.not. passive .and. .not. blocked)
         if (qr%k < kmax) then
-          call add_column(qr, e(:, t), f, t, added)
+          call add_column(qr, e(:, t), f, t, added, cols)
         end if
         if (added) exit
         blocked(t) = .true.
@@ -139,8 +154,8 @@ contains
           x(qr%column(p)) = max(z(p), 0.0_dp)
         end do
       end if
-      residual = f - matmul(e, x)
-      w = matmul(transpose(e), residual)
+      call residual_of(cols, f, x, residual)
+      call gradient(cols, residual, w)
     end do outer
     if (present(spread)) then
       if (.not. spread) return
@@ -247,13 +262,15 @@ contains
 
   !> Appends column t (values a) to the factorisation unless it is dependent on the passive
   !> columns (added = .false.).
-  subroutine add_column(qr, a, f, t, added)
+  !> cols (E by columns, a = column t of it): the first pass Q^T a over a's nonzeros only.
+  subroutine add_column(qr, a, f, t, added, cols)
     type(passive_qr_t), intent(inout) :: qr
     real(dp), intent(in) :: a(:), f(:)
     integer, intent(in) :: t
     logical, intent(out) :: added
+    type(sparse_columns_t), intent(in), optional :: cols
     real(dp) :: v(size(a)), c(qr%k), rcol(qr%k + 1), norm_a, rho
-    integer :: k, pass
+    integer :: k, pass, p
     k = qr%k
     added = .false.
     norm_a = norm2(a)
@@ -262,7 +279,14 @@ contains
     rcol = 0.0_dp
     do pass = 1, 2
       if (k > 0) then
-        c = matmul(v, qr%q(:, 1:k))
+        if (pass == 1 .and. present(cols)) then
+          c = 0.0_dp
+          do p = cols%start(t), cols%start(t + 1) - 1
+            c = c + cols%val(p)*qr%q(cols%row(p), 1:k)
+          end do
+        else
+          c = matmul(v, qr%q(:, 1:k))
+        end if
         v = v - matmul(qr%q(:, 1:k), c)
         rcol(1:k) = rcol(1:k) + c
       end if
@@ -314,6 +338,57 @@ contains
     end do
     qr%k = k - 1
   end subroutine remove_column
+
+  !> The nonzeros of e, column by column (rows in increasing order).
+  pure subroutine compress_columns(e, cols)
+    real(dp), intent(in) :: e(:, :)
+    type(sparse_columns_t), intent(out) :: cols
+    integer :: i, j, nnz
+    allocate (cols%start(size(e, 2) + 1))
+    nnz = count(e /= 0.0_dp)
+    allocate (cols%row(nnz), cols%val(nnz))
+    nnz = 0
+    do j = 1, size(e, 2)
+      cols%start(j) = nnz + 1
+      do i = 1, size(e, 1)
+        if (e(i, j) /= 0.0_dp) then
+          nnz = nnz + 1
+          cols%row(nnz) = i
+          cols%val(nnz) = e(i, j)
+        end if
+      end do
+    end do
+    cols%start(size(e, 2) + 1) = nnz + 1
+  end subroutine compress_columns
+
+  !> w = E^T r.
+  pure subroutine gradient(cols, r, w)
+    type(sparse_columns_t), intent(in) :: cols
+    real(dp), intent(in) :: r(:)
+    real(dp), intent(out) :: w(:)
+    integer :: j, p
+    do j = 1, size(w)
+      w(j) = 0.0_dp
+      do p = cols%start(j), cols%start(j + 1) - 1
+        w(j) = w(j) + cols%val(p)*r(cols%row(p))
+      end do
+    end do
+  end subroutine gradient
+
+  !> r = f - E x.
+  pure subroutine residual_of(cols, f, x, r)
+    type(sparse_columns_t), intent(in) :: cols
+    real(dp), intent(in) :: f(:), x(:)
+    real(dp), intent(out) :: r(:)
+    integer :: j, p
+    r = f
+    do j = 1, size(x)
+      if (x(j) == 0.0_dp) cycle
+      do p = cols%start(j), cols%start(j + 1) - 1
+        r(cols%row(p)) = r(cols%row(p)) - cols%val(p)*x(j)
+      end do
+    end do
+  end subroutine residual_of
 
   !> z(1:k) = R^-1 Q^T f: the least-squares solution on the passive columns.
   pure subroutine back_substitute(qr, z)
