@@ -141,6 +141,11 @@ contains
     box_gap2 = max(s1, s2, s3)
   end function box_gap2
 
+  pure real(dp) function sqdist3(x, y)
+    real(dp), intent(in) :: x(3), y(3)
+    sqdist3 = (x(1) - y(1))**2 + (x(2) - y(2))**2 + (x(3) - y(3))**2
+  end function sqdist3
+
   !> Squared distance from point p to oriented box b (same frame).
   pure real(dp) function point_box_gap2(p, b)
     real(dp), intent(in) :: p(3), b(15)
@@ -258,7 +263,8 @@ contains
     subroutine leaf_pair(na, nb)
       integer, intent(in) :: na, nb
       integer :: sa, sb, ka, kb, j, fa0, fa1, fb0, fb1, region
-      real(dp) :: q(3), d2, s, t, c1(3), c2(3), h
+      real(dp) :: q(3), d2, s, t, c1(3), c2(3), h, mid_a(3), half_a, reach, reach_a
+      real(dp) :: mid_b(3, 3, LEAF_SIZE)
       fa0 = tree_a%first(na)
       fa1 = fa0 + tree_a%count(na) - 1
       fb0 = tree_b%first(nb)
@@ -268,6 +274,9 @@ contains
           tb(:, j, sb - fb0 + 1) = matmul(rel%r, tree_b%tri(:, j, sb)) + rel%t
         end do
         nrm_b(:, sb - fb0 + 1) = matmul(rel%r, tree_b%normal(:, sb))
+        do j = 1, 3
+          mid_b(:, j, sb - fb0 + 1) = 0.5_dp*(tb(:, j, sb - fb0 + 1) + tb(:, mod(j, 3) + 1, sb - fb0 + 1))
+        end do
       end do
       ! vertices of A against faces of B, edges of A against edges of B
       do sa = fa0, fa1
@@ -289,10 +298,23 @@ contains
             end do
           end if
           if (owns_edge(tree_a%flags(sa), ka)) then
+            mid_a = 0.5_dp*(tree_a%tri(:, ka, sa) + tree_a%tri(:, mod(ka, 3) + 1, sa))
+            half_a = tree_a%half_edge(ka, sa)
+            ! (best2 only falls in the loop below: a reach from its value here stays safe)
+            reach_a = huge(1.0_dp)
+            if (best2 < huge(1.0_dp)) reach_a = (1.0_dp + 1.0e-12_dp)*sqrt(best2) + half_a
             do sb = fb0, fb1
               j = sb - fb0 + 1
               do kb = 1, 3
                 if (.not. owns_edge(tree_b%flags(sb), kb)) cycle
+                ! Two segments are at least |c_a - c_b| - r_a - r_b apart (centres, half
+                ! lengths): pairs this rules out skip the exact test (most edge pairs of two
+                ! boxes in contact). The margin covers the rounding of the bound, so the
+                ! closest pair found is the same as without the test.
+                if (reach_a < huge(1.0_dp)) then
+                  reach = reach_a + tree_b%half_edge(kb, sb)
+                  if (sqdist3(mid_a, mid_b(:, kb, j)) > reach*reach) cycle
+                end if
                 call closest_segment_segment(tree_a%tri(:, ka, sa), tree_a%tri(:, mod(ka, 3) + 1, sa), &
                                              tb(:, kb, j), tb(:, mod(kb, 3) + 1, j), s, t, c1, c2, d2)
                 n_prim = n_prim + 1

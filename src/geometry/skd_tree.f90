@@ -52,6 +52,7 @@ module skd_tree
     integer, allocatable :: face_id(:)        !< (n_faces) mesh face of each slot
     integer, allocatable :: tri_nodes(:, :)   !< (3, n_faces) mesh node indices per slot
     integer, allocatable :: flags(:)          !< (n_faces) ownership bits, see owns_vertex etc.
+    real(dp), allocatable :: half_edge(:, :)  !< (3, n_faces) half length of edge k of each slot [m]
   contains
     procedure :: build => tree_build
     procedure :: free => tree_free
@@ -88,6 +89,7 @@ contains
     if (allocated(self%face_id)) deallocate (self%face_id)
     if (allocated(self%tri_nodes)) deallocate (self%tri_nodes)
     if (allocated(self%flags)) deallocate (self%flags)
+    if (allocated(self%half_edge)) deallocate (self%half_edge)
     self%n_faces = 0
     self%n_boxes = 0
     self%n_mesh_nodes = 0
@@ -151,7 +153,8 @@ contains
     end if
     self%radius = norm2(self%box(4:6, 1))
 
-    allocate (self%tri(3, 3, nf), self%normal(3, nf), self%face_id(nf), self%tri_nodes(3, nf), self%flags(nf))
+    allocate (self%tri(3, 3, nf), self%normal(3, nf), self%face_id(nf), self%tri_nodes(3, nf), self%flags(nf), &
+              self%half_edge(3, nf))
     do slot = 1, nf
       f = perm(slot)
       self%face_id(slot) = f
@@ -160,6 +163,9 @@ contains
         self%tri(:, k, slot) = m%nodes(:, m%faces(k, f))
       end do
       self%normal(:, slot) = unit_normal(self%tri(:, :, slot))
+      do k = 1, 3
+        self%half_edge(k, slot) = 0.5_dp*norm2(self%tri(:, mod(k, 3) + 1, slot) - self%tri(:, k, slot))
+      end do
     end do
     call assign_owners(self)
   end subroutine tree_build
