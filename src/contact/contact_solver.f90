@@ -33,7 +33,7 @@ module contact_solver
   use impulse_solver, only: contact_t, group_members
   implicit none
   private
-  public :: pgs_stats_t, solve_contacts_pgs, tangent_basis
+  public :: pgs_stats_t, pgs_setup_t, solve_contacts_pgs, tangent_basis
 
   type :: pgs_stats_t
     integer :: solves = 0              !< calls
@@ -41,6 +41,20 @@ module contact_solver
     integer :: max_sweeps_seen = 0
     integer :: cap_hits = 0            !< solves stopped by the sweep cap
   end type pgs_stats_t
+
+  !> What a solve computes from the contacts and the bodies' poses only, per contact c: the
+  !> basis (normal, two tangents), the 1x1 and 2x2 blocks of the effective inverse mass, the
+  !> bodies' angular velocity change per unit impulse along each basis direction, the arms;
+  !> and the moving bodies of the group with each one's reach.
+  type :: pgs_setup_t
+    logical :: ready = .false.
+    real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), turn_a(:, :, :), turn_b(:, :, :)
+    real(dp), allocatable :: arm_a(:, :), arm_b(:, :), reach(:)
+    integer, allocatable :: members(:), side(:, :)
+    integer :: n_members = 0
+  contains
+    procedure :: free => setup_free
+  end type pgs_setup_t
 
 contains
 
@@ -66,7 +80,8 @@ contains
   !> fixed_normal(m), when present, holds the normal impulses fixed (tangential solve only,
   !> with cone radius mu*fixed_normal): friction at an impact whose normal impulses are known.
   !> warm_applied: the warm start is already in the velocities (do not apply it again).
-  subroutine solve_contacts_pgs(bodies, contacts, impulse, tolerance, max_sweeps, stats, fixed_normal, warm_applied)
+  subroutine solve_contacts_pgs(bodies, contacts, impulse, tolerance, max_sweeps, stats, fixed_normal, warm_applied, &
+                                setup)
     type(bodies_t), intent(inout) :: bodies
     type(contact_t), intent(in) :: contacts(:)
     real(dp), intent(inout) :: impulse(:, :)
@@ -75,35 +90,113 @@ contains
     type(pgs_stats_t), intent(inout) :: stats
     real(dp), intent(in), optional :: fixed_normal(:)
     logical, intent(in), optional :: warm_applied
+    !> The contacts' geometry (bases, effective masses, responses), computed on the first call
+    !> and reused while the bodies' poses and the contacts stay the same (the rounds of a
+    !> staggered solve); the caller frees it when they change.
+    type(pgs_setup_t), intent(inout), optional :: setup
+    type(pgs_setup_t) :: own
+    stats%solves = stats%solves + 1
+    if (size(contacts) == 0) return
+    if (present(setup)) then
+      if (.not. setup%ready) call pgs_prepare(bodies, contacts, setup)
+      call pgs_sweeps(bodies, contacts, impulse, tolerance, max_sweeps, stats, setup, fixed_normal, warm_applied)
+    else
+      call pgs_prepare(bodies, contacts, own)
+      call pgs_sweeps(bodies, contacts, impulse, tolerance, max_sweeps, stats, own, fixed_normal, warm_applied)
+    end if
+  end subroutine solve_contacts_pgs
+
+  !> The geometry of contacts(:) at the bodies' present poses (velocities not used).
+  subroutine pgs_prepare(bodies, contacts, setup)
+    type(bodies_t), intent(in) :: bodies
+    type(contact_t), intent(in) :: contacts(:)
+    type(pgs_setup_t), intent(inout) :: setup
+    real(dp) :: k(3, 3)
+    integer :: m, c
+    m = size(contacts)
+    call setup%free()
+    allocate (setup%basis(3, 3, m), setup%k_nn(m), setup%k_tt(2, 2, m), setup%turn_a(3, 3, m), &
+              setup%turn_b(3, 3, m), setup%arm_a(3, m), setup%arm_b(3, m))
+    associate (basis => setup%basis)
+      do c = 1, m
+        setup%arm_a(:, c) = contacts(c)%point - bodies%x(:, contacts(c)%a)
+        setup%arm_b(:, c) = contacts(c)%point - bodies%x(:, contacts(c)%b)
+        basis(:, 1, c) = contacts(c)%normal
+        call tangent_basis(contacts(c)%normal, basis(:, 2, c), basis(:, 3, c))
+        ! Angular velocity change of each body per unit impulse along each basis direction
+        ! (world I^-1 (r x d)), once per solve: the sweeps then turn no quaternions.
+        call turn_responses(contacts(c)%a, c, setup%turn_a(:, :, c))
+        call turn_responses(contacts(c)%b, c, setup%turn_b(:, :, c))
+        k = effective_mass(bodies, contacts(c))
+        setup%k_nn(c) = dot_product(basis(:, 1, c), matmul(k, basis(:, 1, c)))
+        setup%k_tt(:, :, c) = matmul(transpose(basis(:, 2:3, c)), matmul(k, basis(:, 2:3, c)))
+      end do
+    end associate
+    ! The bodies of the group (moving ones), whose velocity changes per sweep end the loop:
+    ! with more contact points than the impulses need (four corners of a face), impulses
+    ! can drift between points while the velocities have long converged.
+    call group_members(bodies, contacts, setup%members, setup%n_members, setup%side)
+    ! reach: the farthest contact point of a body's contacts from its centre
+    allocate (setup%reach(setup%n_members))
+    setup%reach = 0.0_dp
+    do c = 1, m
+      if (setup%side(1, c) > 0) setup%reach(setup%side(1, c)) = max(setup%reach(setup%side(1, c)), &
+                                                                     norm2(setup%arm_a(:, c)))
+      if (setup%side(2, c) > 0) setup%reach(setup%side(2, c)) = max(setup%reach(setup%side(2, c)), &
+                                                                     norm2(setup%arm_b(:, c)))
+    end do
+    setup%ready = .true.
+  contains
+    subroutine turn_responses(i, cc, turn)
+      integer, intent(in) :: i, cc
+      real(dp), intent(out) :: turn(3, 3)
+      integer :: d
+      turn = 0.0_dp
+      if (bodies%fixed(i)) return
+      do d = 1, 3
+        turn(:, d) = world_inverse_inertia(bodies, i, cross(contacts(cc)%point - bodies%x(:, i), setup%basis(:, d, cc)))
+      end do
+    end subroutine turn_responses
+  end subroutine pgs_prepare
+
+  subroutine setup_free(self)
+    class(pgs_setup_t), intent(inout) :: self
+    if (allocated(self%basis)) deallocate (self%basis, self%k_nn, self%k_tt, self%turn_a, self%turn_b, self%arm_a, &
+                                           self%arm_b)
+    if (allocated(self%members)) deallocate (self%members)
+    if (allocated(self%side)) deallocate (self%side)
+    if (allocated(self%reach)) deallocate (self%reach)
+    self%n_members = 0
+    self%ready = .false.
+  end subroutine setup_free
+
+  !> The warm start and the sweeps of solve_contacts_pgs over a prepared setup.
+  subroutine pgs_sweeps(bodies, contacts, impulse, tolerance, max_sweeps, stats, setup, fixed_normal, warm_applied)
+    type(bodies_t), intent(inout) :: bodies
+    type(contact_t), intent(in) :: contacts(:)
+    real(dp), intent(inout) :: impulse(:, :)
+    real(dp), intent(in) :: tolerance
+    integer, intent(in) :: max_sweeps
+    type(pgs_stats_t), intent(inout) :: stats
+    type(pgs_setup_t), intent(in) :: setup
+    real(dp), intent(in), optional :: fixed_normal(:)
+    logical, intent(in), optional :: warm_applied
     logical :: apply_warm
-    real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), lam(:, :), v_prev(:, :), w_prev(:, :), reach(:)
-    real(dp), allocatable :: turn_a(:, :, :), turn_b(:, :, :), arm_a(:, :), arm_b(:, :)
-    integer, allocatable :: members(:), side(:, :)
-    integer :: n_members, b
-    real(dp) :: k(3, 3), u(3), un, ut(2), dl(3), new_t(2), limit, change, p(3)
+    real(dp), allocatable :: lam(:, :), v_prev(:, :), w_prev(:, :)
+    integer :: b
+    real(dp) :: u(3), un, ut(2), dl(3), new_t(2), limit, change, p(3)
     integer :: m, c, sweep
     logical :: tangential_only
 
     m = size(contacts)
-    stats%solves = stats%solves + 1
-    if (m == 0) return
     tangential_only = present(fixed_normal)
     apply_warm = .true.
     if (present(warm_applied)) apply_warm = .not. warm_applied
-    allocate (basis(3, 3, m), k_nn(m), k_tt(2, 2, m), lam(3, m), turn_a(3, 3, m), turn_b(3, 3, m), arm_a(3, m), &
-              arm_b(3, m))
+    allocate (lam(3, m))
+    associate (basis => setup%basis, k_nn => setup%k_nn, k_tt => setup%k_tt, turn_a => setup%turn_a, &
+               turn_b => setup%turn_b, arm_a => setup%arm_a, arm_b => setup%arm_b, members => setup%members, &
+               n_members => setup%n_members, reach => setup%reach)
     do c = 1, m
-      arm_a(:, c) = contacts(c)%point - bodies%x(:, contacts(c)%a)
-      arm_b(:, c) = contacts(c)%point - bodies%x(:, contacts(c)%b)
-      basis(:, 1, c) = contacts(c)%normal
-      call tangent_basis(contacts(c)%normal, basis(:, 2, c), basis(:, 3, c))
-      ! Angular velocity change of each body per unit impulse along each basis direction
-      ! (world I^-1 (r x d)), once per solve: the sweeps then turn no quaternions.
-      call turn_responses(contacts(c)%a, c, turn_a(:, :, c))
-      call turn_responses(contacts(c)%b, c, turn_b(:, :, c))
-      k = effective_mass(bodies, contacts(c))
-      k_nn(c) = dot_product(basis(:, 1, c), matmul(k, basis(:, 1, c)))
-      k_tt(:, :, c) = matmul(transpose(basis(:, 2:3, c)), matmul(k, basis(:, 2:3, c)))
       ! the warm start in the contact's basis, put inside the cone
       lam(:, c) = matmul(transpose(basis(:, :, c)), impulse(:, c))
       if (tangential_only) lam(1, c) = fixed_normal(c)
@@ -119,17 +212,7 @@ contains
       if (apply_warm) call apply(bodies, contacts(c), p)
     end do
 
-    ! The bodies of the group (moving ones), whose velocity changes per sweep end the loop:
-    ! with more contact points than the impulses need (four corners of a face), impulses
-    ! can drift between points while the velocities have long converged.
-    call group_members(bodies, contacts, members, n_members, side)
-    ! reach: the farthest contact point of a body's contacts from its centre
-    allocate (v_prev(3, n_members), w_prev(3, n_members), reach(n_members))
-    reach = 0.0_dp
-    do c = 1, m
-      if (side(1, c) > 0) reach(side(1, c)) = max(reach(side(1, c)), norm2(arm_a(:, c)))
-      if (side(2, c) > 0) reach(side(2, c)) = max(reach(side(2, c)), norm2(arm_b(:, c)))
-    end do
+    allocate (v_prev(3, n_members), w_prev(3, n_members))
     do sweep = 1, max_sweeps
       change = 0.0_dp
       do b = 1, n_members
@@ -170,19 +253,9 @@ contains
     do c = 1, m
       impulse(:, c) = matmul(basis(:, :, c), lam(:, c))
     end do
+    end associate
 
   contains
-
-    subroutine turn_responses(i, cc, turn)
-      integer, intent(in) :: i, cc
-      real(dp), intent(out) :: turn(3, 3)
-      integer :: d
-      turn = 0.0_dp
-      if (bodies%fixed(i)) return
-      do d = 1, 3
-        turn(:, d) = world_inverse_inertia(bodies, i, cross(contacts(cc)%point - bodies%x(:, i), basis(:, d, cc)))
-      end do
-    end subroutine turn_responses
 
     !> Impulse basis(:, :, c) dl on b and its opposite on a (as apply, with the responses
     !> computed once).
@@ -190,15 +263,17 @@ contains
       integer, intent(in) :: cc
       real(dp), intent(in) :: dl(3)
       real(dp) :: p(3)
-      p = basis(:, 1, cc)*dl(1) + basis(:, 2, cc)*dl(2) + basis(:, 3, cc)*dl(3)
+      p = setup%basis(:, 1, cc)*dl(1) + setup%basis(:, 2, cc)*dl(2) + setup%basis(:, 3, cc)*dl(3)
       associate (a => contacts(cc)%a, b => contacts(cc)%b)
         if (.not. bodies%fixed(b)) then
           bodies%v(:, b) = bodies%v(:, b) + bodies%inv_mass(b)*p
-          bodies%w(:, b) = bodies%w(:, b) + (turn_b(:, 1, cc)*dl(1) + turn_b(:, 2, cc)*dl(2) + turn_b(:, 3, cc)*dl(3))
+          bodies%w(:, b) = bodies%w(:, b) + (setup%turn_b(:, 1, cc)*dl(1) + setup%turn_b(:, 2, cc)*dl(2) + &
+                                             setup%turn_b(:, 3, cc)*dl(3))
         end if
         if (.not. bodies%fixed(a)) then
           bodies%v(:, a) = bodies%v(:, a) - bodies%inv_mass(a)*p
-          bodies%w(:, a) = bodies%w(:, a) - (turn_a(:, 1, cc)*dl(1) + turn_a(:, 2, cc)*dl(2) + turn_a(:, 3, cc)*dl(3))
+          bodies%w(:, a) = bodies%w(:, a) - (setup%turn_a(:, 1, cc)*dl(1) + setup%turn_a(:, 2, cc)*dl(2) + &
+                                             setup%turn_a(:, 3, cc)*dl(3))
         end if
       end associate
     end subroutine apply_local
@@ -208,11 +283,12 @@ contains
       integer, intent(in) :: cc
       real(dp) :: uu(3)
       associate (a => contacts(cc)%a, b => contacts(cc)%b)
-        uu = bodies%v(:, b) + cross(bodies%w(:, b), arm_b(:, cc)) - bodies%v(:, a) - cross(bodies%w(:, a), arm_a(:, cc))
+        uu = bodies%v(:, b) + cross(bodies%w(:, b), setup%arm_b(:, cc)) - bodies%v(:, a) - &
+             cross(bodies%w(:, a), setup%arm_a(:, cc))
       end associate
     end function contact_velocity
 
-  end subroutine solve_contacts_pgs
+  end subroutine pgs_sweeps
 
   !> New tangential impulse of one contact: minimises 1/2 x.K x + x.g over |x| <= limit,
   !> with g = u_t - K lambda_old (the energy change of the contact as a function of its
