@@ -1041,8 +1041,7 @@ contains
     character(len=48) :: buffer
     character(len=24) :: fmt
     character(len=:), allocatable :: digits, mantissa
-    real(dp) :: back
-    integer :: n_digits, ios, e_pos, exponent, first
+    integer :: n_digits, e_pos, exponent, first, low, high, middle
     logical :: negative
 
     if (.not. ieee_is_finite(x)) then
@@ -1058,12 +1057,32 @@ contains
     ! Near the top of the range fewer digits could round up past huge() and overflow.
     first = 1
     if (abs(x) > 1.0e307_dp) first = 17
-    do n_digits = first, 17
-      write (fmt, '(a,i0,a)') '(es48.', n_digits - 1, 'e4)'
-      write (buffer, fmt) x
-      read (buffer, *, iostat=ios) back
-      if (ios == 0 .and. back == x) exit
+    ! The fewest digits that read back as x. Round-tripping is monotone in the number of
+    ! digits (the conversions round correctly), so after the short ones (most deck values:
+    ! 0.1, 2.5) a bisection finds it in four tries instead of up to seventeen (effective
+    ! decks of 10^5 jittered bodies were seconds of formatted I/O at every checkpoint).
+    n_digits = 0
+    do low = first, 3
+      if (round_trips(low)) then
+        n_digits = low
+        exit
+      end if
     end do
+    if (n_digits == 0) then
+      low = max(first, 4)
+      high = 17
+      do while (low < high)
+        middle = (low + high)/2
+        if (round_trips(middle)) then
+          high = middle
+        else
+          low = middle + 1
+        end if
+      end do
+      n_digits = low
+    end if
+    write (fmt, '(a,i0,a)') '(es48.', n_digits - 1, 'e4)'
+    write (buffer, fmt) x
     buffer = adjustl(buffer)
     negative = buffer(1:1) == '-'
     if (negative .or. buffer(1:1) == '+') buffer = buffer(2:)
@@ -1088,6 +1107,16 @@ contains
       text = digits(1:1)//'.'//digits(2:)//'e'//str(exponent)
     end if
     if (negative) text = '-'//text
+  contains
+    logical function round_trips(n)
+      integer, intent(in) :: n
+      integer :: ios
+      real(dp) :: back
+      write (fmt, '(a,i0,a)') '(es48.', n - 1, 'e4)'
+      write (buffer, fmt) x
+      read (buffer, *, iostat=ios) back
+      round_trips = ios == 0 .and. back == x
+    end function round_trips
   end function real_text
 
   pure function without_dot(text) result(packed)
