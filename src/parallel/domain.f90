@@ -63,6 +63,8 @@ module domain
   type :: domain_t
     real(dp) :: h = 0.0_dp                 !< grid box edge [m]
     real(dp) :: inv_h = 0.0_dp
+    !> |coordinate| [m] beyond which box_of clamps before scaling (2^54 boxes, or huge)
+    real(dp) :: point_limit = 0.0_dp
     type(box_range_t) :: global            !< every box of the scene
     integer(i8) :: n_boxes(3) = 0          !< boxes along each axis
     integer :: dims(3) = 1                 !< ranks along each axis
@@ -130,6 +132,13 @@ contains
     end if
     self%h = box_size
     self%inv_h = 1.0_dp/box_size
+    ! 2^54 h without overflowing: beyond it a point is far outside the global box anyway
+    ! (|bounds| <= 2^52 boxes), and point*inv_h could overflow (a trap in Debug builds)
+    if (box_size >= huge(1.0_dp)*2.0_dp**(-54)) then
+      self%point_limit = huge(1.0_dp)
+    else
+      self%point_limit = box_size*2.0_dp**54
+    end if
     ! the same arithmetic as cell_grid's placement: floor(x*inv_h)
     self%global%lo = int(floor(lower*self%inv_h), i8)
     self%global%hi = int(floor(upper*self%inv_h), i8)
@@ -189,8 +198,10 @@ contains
     real(dp), intent(in) :: point(3)
     integer(i8) :: k(3)
     real(dp) :: t(3)
-    ! clamp in reals first: a point far outside must not overflow the integer conversion
-    t = min(max(point*self%inv_h, real(self%global%lo, dp)), real(self%global%hi, dp))
+    ! clamp in reals first: a point far outside must not overflow the integer conversion,
+    ! nor (huge coordinates) the scaling; inside the limit the arithmetic is cell_grid's
+    t = min(max(point, -self%point_limit), self%point_limit)*self%inv_h
+    t = min(max(t, real(self%global%lo, dp)), real(self%global%hi, dp))
     k = int(floor(t), i8)
   end function domain_box_of
 

@@ -1,14 +1,23 @@
 !> The only module that calls MPI. A serial build (RICOCHET_USE_MPI off) compiles the same
 !> interface with one rank, so the physics never branches on whether MPI is there.
+!>
+!> Besides the world communicator (collectives, output) a run may hold a Cartesian one for
+!> the domain decomposition (cart_create): made with periods false and reorder false, so
+!> its ranks are the world ranks and its numbering is domain_t's (row-major, the last
+!> coordinate fastest). exchange_faces is the one point-to-point operation: the halo
+!> exchange's pass along one axis, a buffer to and from each face neighbour.
 module parallel_env
 #ifdef RICOCHET_USE_MPI
   use mpi_f08, only: MPI_Comm, MPI_COMM_WORLD, MPI_Init, MPI_Finalize, MPI_Initialized, &
                      MPI_Finalized, MPI_Comm_rank, MPI_Comm_size, MPI_Allreduce, MPI_Exscan, &
                      MPI_Bcast, MPI_Barrier, MPI_Abort, MPI_Wtime, MPI_SUM, MPI_MAX, MPI_MIN, &
                      MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_INTEGER8, MPI_LOGICAL, MPI_LOR, &
-                     MPI_CHARACTER, MPI_IN_PLACE
+                     MPI_CHARACTER, MPI_IN_PLACE, MPI_Cart_create, MPI_Cart_shift, MPI_Comm_free, &
+                     MPI_Sendrecv, MPI_Status, MPI_PROC_NULL, MPI_SUCCESS, operator(/=)
 #endif
   use kinds, only: dp, i8
+  use error_status, only: error_t, ERR_INTERNAL, ERR_PARALLEL
+  use string_utils, only: str
   implicit none
   private
   public :: parallel_t
@@ -17,10 +26,14 @@ module parallel_env
   type :: parallel_t
 #ifdef RICOCHET_USE_MPI
     type(MPI_Comm) :: comm
+    type(MPI_Comm) :: cart          !< the Cartesian communicator (valid when has_cart)
 #endif
     integer :: rank = 0
     integer :: n_ranks = 1
     logical :: owns_mpi = .false.   !< this object initialised MPI and must finalise it
+    logical :: has_cart = .false.   !< cart_create has made the Cartesian communicator
+    integer :: cart_dims(3) = 1     !< its ranks along x, y, z
+    integer :: cart_rank = 0        !< this rank in it (= rank: reorder is false)
   contains
     procedure :: init => parallel_init
     procedure :: free => parallel_free
@@ -29,6 +42,9 @@ module parallel_env
     procedure :: abort => parallel_abort
     procedure :: wtime => parallel_wtime
     procedure :: comm_handle => parallel_comm_handle
+    procedure :: cart_create => parallel_cart_create
+    procedure :: cart_free => parallel_cart_free
+    procedure :: exchange_faces => parallel_exchange_faces
     generic :: sum => sum_dp, sum_int, sum_int8
     generic :: sum_inplace => sum_dp_array
     generic :: max => max_dp, max_int
@@ -64,6 +80,9 @@ contains
     class(parallel_t), intent(inout) :: self
 #ifdef RICOCHET_USE_MPI
     logical :: done
+#endif
+    call self%cart_free()
+#ifdef RICOCHET_USE_MPI
     if (self%owns_mpi) then
       call MPI_Finalized(done)
       if (.not. done) call MPI_Finalize()
@@ -71,6 +90,142 @@ contains
     end if
 #endif
   end subroutine parallel_free
+
+  !> The Cartesian communicator of a dims(1) x dims(2) x dims(3) rank grid over all ranks
+  !> (replacing one made before). periods false: the domain has walls, not wrap-around;
+  !> reorder false: the Cartesian rank stays the world rank, so domain_t (built from it)
+  !> and the output's rank order agree. The world communicator stays for everything else.
+  subroutine parallel_cart_create(self, dims, err)
+    class(parallel_t), intent(inout) :: self
+    integer, intent(in) :: dims(3)
+    type(error_t), intent(inout) :: err
+#ifdef RICOCHET_USE_MPI
+    integer :: ierror
+#endif
+    if (any(dims < 1) .or. product(int(dims, i8)) /= int(self%n_ranks, i8)) then
+      call err%set(ERR_PARALLEL, 'parallel: a '//str(dims(1))//' x '//str(dims(2))//' x '//str(dims(3))// &
+                   ' rank grid does not fit '//str(self%n_ranks)//' rank(s)')
+      return
+    end if
+    call self%cart_free()
+#ifdef RICOCHET_USE_MPI
+    call MPI_Cart_create(self%comm, 3, dims, [.false., .false., .false.], .false., self%cart, ierror)
+    if (ierror /= MPI_SUCCESS) then
+      call err%set(ERR_PARALLEL, 'parallel: MPI_Cart_create failed (error '//str(ierror)//')')
+      return
+    end if
+    call MPI_Comm_rank(self%cart, self%cart_rank)
+#else
+    self%cart_rank = 0
+#endif
+    self%cart_dims = dims
+    self%has_cart = .true.
+  end subroutine parallel_cart_create
+
+  !> Drops the Cartesian communicator, if any (collective over its ranks).
+  subroutine parallel_cart_free(self)
+    class(parallel_t), intent(inout) :: self
+#ifdef RICOCHET_USE_MPI
+    logical :: done
+    if (self%has_cart) then
+      ! after MPI_Finalize (someone else's) the handle is gone with the library
+      call MPI_Finalized(done)
+      if (.not. done) call MPI_Comm_free(self%cart)
+    end if
+#endif
+    self%has_cart = .false.
+    self%cart_dims = 1
+    self%cart_rank = self%rank
+  end subroutine parallel_cart_free
+
+  !> One pass of the halo exchange along axis (1..3) of the Cartesian communicator:
+  !> send_minus goes to the face neighbour on the minus side, minus_rank, and send_plus to
+  !> plus_rank; recv_minus and recv_plus are what those neighbours sent this rank. A
+  !> neighbour rank < 0 (domain_t's NO_RANK) is none: MPI_PROC_NULL, nothing sent, an empty
+  !> buffer received. Lengths go first (one integer each way), so the receiver sizes its
+  !> buffer exactly; then the payloads. Each direction is one MPI_Sendrecv, so a row of
+  !> ranks shifts in step and no ordering of sends can deadlock. The neighbours are checked
+  !> against MPI_Cart_shift: domain_t and the communicator must number the ranks alike (on
+  !> a mismatch this rank sends empty buffers to the communicator's neighbours and fails).
+  !> Collective over the ranks of the communicator (every one calls it for the same axis).
+  subroutine parallel_exchange_faces(self, axis, minus_rank, plus_rank, send_minus, send_plus, &
+                                     recv_minus, recv_plus, err)
+    class(parallel_t), intent(in) :: self
+    integer, intent(in) :: axis
+    integer, intent(in) :: minus_rank, plus_rank
+    real(dp), intent(in) :: send_minus(:), send_plus(:)
+    real(dp), allocatable, intent(out) :: recv_minus(:), recv_plus(:)
+    type(error_t), intent(inout) :: err
+#ifdef RICOCHET_USE_MPI
+    ! tags: lengths and payloads, towards plus and towards minus, kept apart so that a
+    ! rank with the same rank on both sides (a periodic axis of two ranks, should the
+    ! grid ever wrap) still pairs them right
+    integer, parameter :: TAG_LENGTH_UP = 101, TAG_LENGTH_DOWN = 102, TAG_DATA_UP = 103, &
+                          TAG_DATA_DOWN = 104
+    integer :: minus, plus, shift_minus, shift_plus, n_send_minus, n_send_plus, n_from_minus, &
+               n_from_plus, ierror(4)
+    logical :: mismatch
+    type(MPI_Status) :: status
+#endif
+    allocate (recv_minus(0), recv_plus(0))
+    if (.not. self%has_cart) then
+      call err%set(ERR_INTERNAL, 'parallel: exchange_faces before cart_create')
+      return
+    end if
+    if (axis < 1 .or. axis > 3) then
+      call err%set(ERR_INTERNAL, 'parallel: exchange_faces along axis '//str(axis)//', not 1..3')
+      return
+    end if
+#ifdef RICOCHET_USE_MPI
+    minus = MPI_PROC_NULL
+    plus = MPI_PROC_NULL
+    if (minus_rank >= 0) minus = minus_rank
+    if (plus_rank >= 0) plus = plus_rank
+    call MPI_Cart_shift(self%cart, axis - 1, 1, shift_minus, shift_plus)
+    mismatch = shift_minus /= minus .or. shift_plus /= plus
+    if (mismatch) then
+      ! a bug in the caller; still trade (empty) messages with the communicator's own
+      ! neighbours, who expect them: an error is reported, nobody waits forever
+      call err%set(ERR_INTERNAL, 'parallel: face neighbours '//str(minus_rank)//' and '//str(plus_rank)// &
+                   ' along axis '//str(axis)//' are not the Cartesian communicator''s')
+    end if
+    n_send_minus = size(send_minus)
+    n_send_plus = size(send_plus)
+    if (mismatch) then
+      n_send_minus = 0
+      n_send_plus = 0
+    end if
+    n_from_minus = 0          ! MPI_PROC_NULL leaves the receive buffer as it is
+    n_from_plus = 0
+    call MPI_Sendrecv(n_send_plus, 1, MPI_INTEGER, shift_plus, TAG_LENGTH_UP, &
+                      n_from_minus, 1, MPI_INTEGER, shift_minus, TAG_LENGTH_UP, self%cart, status, ierror(1))
+    call MPI_Sendrecv(n_send_minus, 1, MPI_INTEGER, shift_minus, TAG_LENGTH_DOWN, &
+                      n_from_plus, 1, MPI_INTEGER, shift_plus, TAG_LENGTH_DOWN, self%cart, status, ierror(2))
+    deallocate (recv_minus, recv_plus)
+    allocate (recv_minus(max(n_from_minus, 0)), recv_plus(max(n_from_plus, 0)))
+    call MPI_Sendrecv(send_plus, n_send_plus, MPI_DOUBLE_PRECISION, shift_plus, TAG_DATA_UP, &
+                      recv_minus, size(recv_minus), MPI_DOUBLE_PRECISION, shift_minus, TAG_DATA_UP, &
+                      self%cart, status, ierror(3))
+    call MPI_Sendrecv(send_minus, n_send_minus, MPI_DOUBLE_PRECISION, shift_minus, TAG_DATA_DOWN, &
+                      recv_plus, size(recv_plus), MPI_DOUBLE_PRECISION, shift_plus, TAG_DATA_DOWN, &
+                      self%cart, status, ierror(4))
+    if (mismatch) then
+      deallocate (recv_minus, recv_plus)
+      allocate (recv_minus(0), recv_plus(0))
+      return
+    end if
+    if (any(ierror /= MPI_SUCCESS)) call err%set(ERR_PARALLEL, 'parallel: the halo exchange along axis '// &
+                                                 str(axis)//' failed (MPI error '//str(maxval(ierror))//')')
+#else
+    ! one rank: no neighbours, so nothing to send and nothing arrives
+    if (minus_rank >= 0 .or. plus_rank >= 0) then
+      call err%set(ERR_INTERNAL, 'parallel: a face neighbour along axis '//str(axis)// &
+                   ' in a build without MPI')
+      return
+    end if
+    if (.false.) recv_minus = [send_minus, send_plus]
+#endif
+  end subroutine parallel_exchange_faces
 
   pure logical function parallel_is_root(self)
     class(parallel_t), intent(in) :: self
