@@ -130,7 +130,7 @@ contains
                                    ' owned bodies')
         ! which version would go with which body is unknown: keep every body here
         sending = .false.
-      else
+      else if (n > 0) then
         extra(1, :) = versions(1:n)
       end if
     end if
@@ -192,7 +192,7 @@ contains
       call take_bodies(recv_minus, neighbour(1), dom, axis, bodies, extra, n_extra, origin, dest, counts, err, n_bad)
       call take_bodies(recv_plus, neighbour(2), dom, axis, bodies, extra, n_extra, origin, dest, counts, err, n_bad)
     end do
-    if (n_bad > 1) err%message = err%message//' (and '//str(n_bad - 1)//' more bodies on this rank)'
+    if (n_bad > 1) err%message = err%message//' (and '//str(n_bad - 1)//' more such bodies on this rank)'
 
     ! output and checkpoints read owned rows in gid order, and the order must not depend
     ! on which message came first: sort, carrying the per-row arrays along
@@ -261,8 +261,9 @@ contains
     end if
   end subroutine route
 
-  !> The error for a body that cannot go where it belongs (the first one sets err, the
-  !> others are counted in n_bad, so the message names one body and says how many more).
+  !> The error for a body that cannot go where it belongs: the first one sets err (unless
+  !> an earlier error explains more) and n_bad = 1; the ones after it are counted in n_bad,
+  !> so the message names one body and says how many more there were.
   subroutine report(err, why, gid, x, owner, rank, from, n_bad)
     type(error_t), intent(inout) :: err
     integer, intent(in) :: why
@@ -271,8 +272,11 @@ contains
     integer, intent(in) :: owner, rank, from
     integer, intent(inout) :: n_bad
     character(len=:), allocatable :: body_text
-    n_bad = n_bad + 1
-    if (err%failed()) return
+    if (err%failed()) then
+      if (n_bad > 0) n_bad = n_bad + 1
+      return
+    end if
+    n_bad = 1
     body_text = 'body '//str(gid)//' at ('//join_reals(x, '(g0)', ', ')//') m'
     select case (why)
     case (ROUTE_NAN)
