@@ -64,7 +64,7 @@ contains
   elemental subroutine exact_add(self, x)
     class(exact_sum_t), intent(inout) :: self
     real(dp), intent(in) :: x
-    integer(i8) :: bits, mantissa, rest
+    integer(i8) :: bits, mantissa, rest, negate
     integer :: biased, shift, k, r
     ! the bit pattern, not arithmetic: no floating-point operation (and no trap) on NaN
     bits = transfer(x, 0_i8)
@@ -94,15 +94,12 @@ contains
     ! mantissa * 2^r (up to 85 bits) as three pieces below 2^32, added to limbs k..k+2
     rest = ishft(mantissa, -(LIMB_BITS - r))
     mantissa = ishft(iand(mantissa, ishft(1_i8, LIMB_BITS - r) - 1), r)
-    if (bits < 0_i8) then
-      self%word(k) = self%word(k) - mantissa
-      self%word(k + 1) = self%word(k + 1) - iand(rest, MASK32)
-      self%word(k + 2) = self%word(k + 2) - ishft(rest, -LIMB_BITS)
-    else
-      self%word(k) = self%word(k) + mantissa
-      self%word(k + 1) = self%word(k + 1) + iand(rest, MASK32)
-      self%word(k + 2) = self%word(k + 2) + ishft(rest, -LIMB_BITS)
-    end if
+    ! the sign without a branch (random signs would mispredict half the time): negate is 0
+    ! or -1 (all ones), and ieor(p, negate) - negate is p or -p
+    negate = shifta(bits, 63)
+    self%word(k) = self%word(k) + (ieor(mantissa, negate) - negate)
+    self%word(k + 1) = self%word(k + 1) + (ieor(iand(rest, MASK32), negate) - negate)
+    self%word(k + 2) = self%word(k + 2) + (ieor(ishft(rest, -LIMB_BITS), negate) - negate)
     self%load = self%load + 1
   end subroutine exact_add
 
