@@ -18,6 +18,7 @@ module parallel_env
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INTERNAL, ERR_PARALLEL
   use string_utils, only: str
+  use exact_sum, only: exact_sum_t, EXACT_SUM_WORDS
   implicit none
   private
   public :: parallel_t
@@ -46,13 +47,13 @@ module parallel_env
     procedure :: cart_free => parallel_cart_free
     procedure :: exchange_faces => parallel_exchange_faces
     generic :: sum => sum_dp, sum_int, sum_int8
-    generic :: sum_inplace => sum_dp_array
+    generic :: sum_inplace => sum_dp_array, sum_exact_array, sum_exact_one
     generic :: max => max_dp, max_int
     generic :: min => min_dp
     generic :: any => any_logical
     generic :: exscan => exscan_int8
     generic :: bcast => bcast_string, bcast_int, bcast_dp_array
-    procedure, private :: sum_dp, sum_dp_array, sum_int, sum_int8, max_dp, max_int, min_dp, &
+    procedure, private :: sum_dp, sum_dp_array, sum_exact_array, sum_exact_one, sum_int, sum_int8, max_dp, max_int, min_dp, &
                           any_logical, exscan_int8, bcast_string, bcast_int, bcast_dp_array
   end type parallel_t
 
@@ -287,6 +288,41 @@ contains
                                              MPI_SUM, self%comm)
 #endif
   end subroutine sum_dp_array
+
+  !> Exact sums over ranks (exact_sum): every rank ends with the same accumulators, the
+  !> exact sum of all ranks' terms, so their value() is bitwise the same for any split of
+  !> the terms over any number of ranks. The limbs are integers and the reduction is an
+  !> integer MPI_SUM (associative, commutative: the reduction order cannot matter);
+  !> normalised limbs are below 2^32, so fewer than 2^31 ranks (any communicator) cannot
+  !> overflow int64. One MPI_Allreduce of EXACT_SUM_WORDS integers per accumulator.
+  subroutine sum_exact_array(self, sums)
+    class(parallel_t), intent(in) :: self
+    type(exact_sum_t), intent(inout) :: sums(:)
+#ifdef RICOCHET_USE_MPI
+    integer(i8), allocatable :: words(:, :)
+    integer :: k
+    if (self%n_ranks == 1 .or. size(sums) == 0) return
+    allocate (words(EXACT_SUM_WORDS, size(sums)))
+    do k = 1, size(sums)
+      words(:, k) = sums(k)%words()
+    end do
+    call MPI_Allreduce(MPI_IN_PLACE, words, size(words), MPI_INTEGER8, MPI_SUM, self%comm)
+    do k = 1, size(sums)
+      call sums(k)%set_words(words(:, k), self%n_ranks)
+    end do
+#else
+    if (.false.) call sums(1)%reset()
+#endif
+  end subroutine sum_exact_array
+
+  subroutine sum_exact_one(self, sum)
+    class(parallel_t), intent(in) :: self
+    type(exact_sum_t), intent(inout) :: sum
+    type(exact_sum_t) :: one(1)
+    one(1) = sum
+    call self%sum_exact_array(one)
+    sum = one(1)
+  end subroutine sum_exact_one
 
   integer function sum_int(self, value)
     class(parallel_t), intent(in) :: self
