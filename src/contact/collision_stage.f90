@@ -26,7 +26,7 @@ module collision_stage
   use bucket_grid, only: bucket_grid_t, choose_box_size
   use advancement_bound, only: angular_speed_bound
   use time_of_contact, only: pair_motion_t, advancement_result_t, distance_oracle_t, advance_pair
-  use contact_features, only: contact_feature_t, find_contact_features
+  use contact_features, only: contact_feature_t
   use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, contact_groups, group_members
   use contact_solver, only: pgs_stats_t, solve_contacts_pgs
   use resting_contact, only: resting_contact_t
@@ -132,8 +132,6 @@ module collision_stage
 
 contains
 
-  !> Tolerances from the deck (auto values relative to the smallest body) and the grid box
-  !> size from the smallest moving body.
   !> The largest extent (bounding-sphere diameter) of the smallest moving body this rank
   !> owns [m], huge() if it owns none. The grid box and the auto minimum separation follow the
   !> smallest over all ranks (the driver reduces it), so every rank uses the same ones.
@@ -162,6 +160,8 @@ contains
     end if
   end function min_separation_for
 
+  !> Tolerances from the deck (auto values relative to the smallest body) and the grid box
+  !> size from the smallest moving body.
   !> smallest_extent: smallest_moving_extent over every rank [m] (default: this rank's).
   subroutine stage_init(self, deck, shapes, bodies, err, smallest_extent)
     class(collision_stage_t), intent(inout) :: self
@@ -1398,7 +1398,6 @@ contains
     call self%sleep%update(bodies, shapes, flight, h, self%band_pairs, self%n_band_pairs)
   end subroutine stage_settle
 
-  !> Every sleeping body wakes (checkpoints: a restart continues exactly).
   !> The step ends before this rank's earliest contact (another rank's came first): no pair
   !> of this rank is in contact at its end.
   subroutine stage_drop_events(self)
@@ -1432,6 +1431,7 @@ contains
     end if
   end subroutine stage_reserve_table
 
+  !> Every sleeping body wakes (checkpoints: a restart continues exactly).
   subroutine stage_wake_all(self, bodies, flight)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout) :: bodies
