@@ -5,8 +5,9 @@
 !> A submodule: it reads the stage's event pairs and pair table and fills its contact list.
 submodule (collision_stage) collision_stage_impacts
   use error_status, only: ERR_NUMERIC
-  use impulse_solver, only: resolve_impacts, contact_groups, group_members
+  use impulse_solver, only: resolve_impacts, normal_velocity, contact_groups, group_members
   use contact_solver, only: solve_contacts_pgs
+  use pair_geometry, only: pair_contact_points
   implicit none
 
 contains

@@ -5,6 +5,8 @@
 !> the time not taken given back (return_unused_pass). A submodule: it reads the stage's pair
 !> table and marks the pairs it solved there.
 submodule (collision_stage) collision_stage_pass
+  use impulse_solver, only: normal_velocity
+  use pair_geometry, only: pair_contact_points
   implicit none
 
 contains
