@@ -7,7 +7,7 @@
 submodule (collision_stage) collision_stage_advance
   use time_of_contact, only: pair_motion_t, distance_oracle_t, advance_pair
   use impulse_solver, only: normal_velocity
-  use pair_geometry, only: pair_contact_points
+  use pair_geometry, only: pair_gap, pair_contact_points
   use plane_bound, only: plane_safe_time
   implicit none
 

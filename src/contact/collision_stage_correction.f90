@@ -4,6 +4,7 @@
 !> A submodule: it works on the stage's pair table and its local numbering of bodies
 !> (slot_of), both private to collision_stage.
 submodule (collision_stage) collision_stage_correction
+  use pair_geometry, only: pair_gap
   implicit none
 
 contains

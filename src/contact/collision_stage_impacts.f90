@@ -5,9 +5,10 @@
 !> A submodule: it reads the stage's event pairs and pair table and fills its contact list.
 submodule (collision_stage) collision_stage_impacts
   use error_status, only: ERR_NUMERIC
+  use string_utils, only: str
   use impulse_solver, only: resolve_impacts, normal_velocity, contact_groups, group_members
   use contact_solver, only: solve_contacts_pgs
-  use pair_geometry, only: pair_contact_points
+  use pair_geometry, only: pair_gap, gap_lower_bound, pair_contact_points, bounding_sphere_boxes
   implicit none
 
 contains
