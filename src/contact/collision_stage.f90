@@ -208,7 +208,7 @@ module collision_stage
 
     !> Time of contact of candidate pair k over [0, step] from time_now.
     module subroutine stage_advance_candidate(self, bodies, shapes, flight, gravity, config, time_now, k, step, &
-                                       max_iterations, res)
+                                              max_iterations, res)
       class(collision_stage_t), intent(inout) :: self
       type(bodies_t), intent(inout), target :: bodies
       type(shape_library_t), intent(in), target :: shapes

@@ -111,7 +111,7 @@ contains
   !> re-tested along the step (extend_receding). One pair's part of earliest_contact, and what
   !> the local event loop computes for a pair whose certificate is due.
   module subroutine stage_advance_candidate(self, bodies, shapes, flight, gravity, config, time_now, k, step, &
-                                     max_iterations, res)
+                                            max_iterations, res)
     class(collision_stage_t), intent(inout) :: self
     type(bodies_t), intent(inout), target :: bodies
     type(shape_library_t), intent(in), target :: shapes
