@@ -15,24 +15,30 @@
 !> move, resolve builds the contact points of the pairs that reached contact (all features
 !> within the contact tolerance) and applies the impulses (impulse_solver). Bodies far from
 !> everything cost a grid entry and no closest-point query.
+!>
+!> This module holds the stage's type (its pair table, work arrays and statistics), the
+!> interfaces of its procedures and the helpers shared with other modules; each job is a
+!> submodule in its own file, so that one job reads (and recompiles) without the others:
+!>   collision_stage_pairs (init, limit_step, prepare, reserve_table: steps 1-2);
+!>   collision_stage_correction (correct_distances: step 3);
+!>   collision_stage_pass (contact_pass, return_unused_pass: step 4);
+!>   collision_stage_advance (earliest_contact, advance_candidate: step 5);
+!>   collision_stage_impacts (resolve, settle, wake_all, drop_events: step 6).
 module collision_stage
   use kinds, only: dp, i8
-  use error_status, only: error_t, ERR_NUMERIC, ERR_INPUT
-  use string_utils, only: str
+  use error_status, only: error_t
   use input_config, only: deck_t, integrator_config_t
   use shape, only: shape_library_t, SHAPE_SPHERE
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
-  use bucket_grid, only: bucket_grid_t, choose_box_size
+  use bucket_grid, only: bucket_grid_t
   use advancement_bound, only: angular_speed_bound
-  use time_of_contact, only: pair_motion_t, advancement_result_t, distance_oracle_t, advance_pair
-  use contact_features, only: contact_feature_t, find_contact_features
-  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, contact_groups, group_members
-  use contact_solver, only: pgs_stats_t, solve_contacts_pgs
+  use time_of_contact, only: advancement_result_t
+  use contact_features, only: contact_feature_t
+  use impulse_solver, only: contact_t, impulse_stats_t
+  use contact_solver, only: pgs_stats_t
   use resting_contact, only: resting_contact_t
   use contact_material, only: material_table_t
-  use pair_geometry, only: pair_gap, gap_lower_bound, pair_contact_points, bounding_sphere_boxes
-  use plane_bound, only: plane_safe_time
   use quaternion, only: quat_rotate_inverse
   use sleeping, only: sleep_t
   implicit none
@@ -117,23 +123,141 @@ module collision_stage
     procedure :: reserve_table => stage_reserve_table
   end type collision_stage_t
 
-  !> Closest points of one pair at time_now + t, with the poses the propagator will give.
-  type, extends(distance_oracle_t) :: pair_oracle_t
-    type(free_flight_t), pointer :: flight => null()
-    type(bodies_t), pointer :: bodies => null()
-    type(shape_library_t), pointer :: shapes => null()
-    type(integrator_config_t) :: config
-    integer :: i = 0, j = 0
-    real(dp) :: time_now = 0.0_dp, gravity(3) = 0.0_dp
-    real(dp) :: min_gap = huge(1.0_dp)
-  contains
-    procedure :: gap_at => oracle_gap_at
-  end type pair_oracle_t
+  ! The jobs' procedures (docs/contact.md, "One step"), each in its submodule's file.
+  interface
+    ! collision_stage_pairs.f90
+    !> Tolerances from the deck and the grid box from the smallest moving body.
+    module subroutine stage_init(self, deck, shapes, bodies, err, smallest_extent)
+      class(collision_stage_t), intent(inout) :: self
+      type(deck_t), intent(in) :: deck
+      type(shape_library_t), intent(in) :: shapes
+      type(bodies_t), intent(in) :: bodies
+      type(error_t), intent(inout) :: err
+      real(dp), intent(in), optional :: smallest_extent
+    end subroutine stage_init
+
+    !> The largest step that keeps every body within one grid box.
+    module pure real(dp) function stage_limit_step(self, bodies, flight, gravity, h, members) result(limited)
+      class(collision_stage_t), intent(in) :: self
+      type(bodies_t), intent(in) :: bodies
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: gravity(3), h
+      integer, intent(in), optional :: members(:)
+    end function stage_limit_step
+
+    !> The step's candidate pairs, with their gaps and normals at the step's start.
+    module subroutine stage_prepare(self, bodies, shapes, flight, h, gravity, err, margins)
+      class(collision_stage_t), intent(inout) :: self
+      type(bodies_t), intent(in) :: bodies
+      type(shape_library_t), intent(in) :: shapes
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: h, gravity(3)
+      type(error_t), intent(inout) :: err
+      real(dp), intent(in), optional :: margins(:)
+    end subroutine stage_prepare
+
+    !> Room in the step's pair table for m pairs of n bodies.
+    module subroutine stage_reserve_table(self, m, n)
+      class(collision_stage_t), intent(inout) :: self
+      integer, intent(in) :: m, n
+    end subroutine stage_reserve_table
+
+    ! collision_stage_correction.f90
+    !> Opens the candidate pairs settled below 3/4 of the minimum separation.
+    module subroutine stage_correct_distances(self, bodies, shapes, flight)
+      class(collision_stage_t), intent(inout) :: self
+      type(bodies_t), intent(inout) :: bodies
+      type(shape_library_t), intent(in) :: shapes
+      type(free_flight_t), intent(inout) :: flight
+    end subroutine stage_correct_distances
+
+    ! collision_stage_pass.f90
+    !> The contact pass at the start of a step of h over the step's candidate pairs.
+    module subroutine stage_contact_pass(self, bodies, shapes, flight, h, gravity, err, members)
+      class(collision_stage_t), intent(inout) :: self
+      type(bodies_t), intent(inout) :: bodies
+      type(shape_library_t), intent(in) :: shapes
+      type(free_flight_t), intent(inout) :: flight
+      real(dp), intent(in) :: h, gravity(3)
+      type(error_t), intent(inout) :: err
+      integer, intent(in), optional :: members(:)
+    end subroutine stage_contact_pass
+
+    !> Takes back the pass's velocity change for the part of the step not taken.
+    module subroutine stage_return_unused_pass(self, bodies, flight, h_taken, members, pass_step)
+      class(collision_stage_t), intent(in) :: self
+      type(bodies_t), intent(inout) :: bodies
+      type(free_flight_t), intent(inout) :: flight
+      real(dp), intent(in) :: h_taken   !< the step taken [s]
+      integer, intent(in), optional :: members(:)
+      real(dp), intent(in), optional :: pass_step
+    end subroutine stage_return_unused_pass
+
+    ! collision_stage_advance.f90
+    !> Earliest time of contact in [0, h] over all candidate pairs; keeps the pairs in contact then.
+    module subroutine stage_earliest_contact(self, bodies, shapes, flight, time_now, h, gravity, config, h_event, err)
+      class(collision_stage_t), intent(inout) :: self
+      type(bodies_t), intent(inout), target :: bodies
+      type(shape_library_t), intent(in), target :: shapes
+      type(free_flight_t), intent(inout), target :: flight
+      real(dp), intent(in) :: time_now, h, gravity(3)
+      type(integrator_config_t), intent(in) :: config
+      real(dp), intent(out) :: h_event
+      type(error_t), intent(inout) :: err
+    end subroutine stage_earliest_contact
+
+    !> Time of contact of candidate pair k over [0, step] from time_now.
+    module subroutine stage_advance_candidate(self, bodies, shapes, flight, gravity, config, time_now, k, step, &
+                                              max_iterations, res)
+      class(collision_stage_t), intent(inout) :: self
+      type(bodies_t), intent(inout), target :: bodies
+      type(shape_library_t), intent(in), target :: shapes
+      type(free_flight_t), intent(inout), target :: flight
+      real(dp), intent(in) :: gravity(3), time_now
+      type(integrator_config_t), intent(in) :: config
+      integer, intent(in) :: k
+      real(dp), intent(in) :: step          !< [s] from time_now
+      integer, intent(in) :: max_iterations
+      type(advancement_result_t), intent(out) :: res
+    end subroutine stage_advance_candidate
+
+    ! collision_stage_impacts.f90
+    !> After the move to the event: contact points and simultaneous impulses of the pairs in contact.
+    module subroutine stage_resolve(self, bodies, shapes, flight, h_event, h_planned, err, time)
+      class(collision_stage_t), intent(inout) :: self
+      type(bodies_t), intent(inout) :: bodies
+      type(shape_library_t), intent(in) :: shapes
+      type(free_flight_t), intent(inout) :: flight
+      real(dp), intent(in) :: h_event     !< the step taken [s]
+      real(dp), intent(in) :: h_planned   !< the step before the contact cut it [s]
+      type(error_t), intent(inout) :: err
+      real(dp), intent(in), optional :: time
+    end subroutine stage_resolve
+
+    !> After a step of h [s]: islands quiet for long enough fall asleep.
+    module subroutine stage_settle(self, bodies, shapes, flight, h)
+      class(collision_stage_t), intent(inout) :: self
+      type(bodies_t), intent(inout) :: bodies
+      type(shape_library_t), intent(in) :: shapes
+      type(free_flight_t), intent(inout) :: flight
+      real(dp), intent(in) :: h
+    end subroutine stage_settle
+
+    !> No pair of this rank is in contact at the step's end.
+    module subroutine stage_drop_events(self)
+      class(collision_stage_t), intent(inout) :: self
+    end subroutine stage_drop_events
+
+    !> Every sleeping body wakes.
+    module subroutine stage_wake_all(self, bodies, flight)
+      class(collision_stage_t), intent(inout) :: self
+      type(bodies_t), intent(inout) :: bodies
+      type(free_flight_t), intent(inout) :: flight
+    end subroutine stage_wake_all
+  end interface
 
 contains
 
-  !> Tolerances from the deck (auto values relative to the smallest body) and the grid box
-  !> size from the smallest moving body.
   !> The largest extent (bounding-sphere diameter) of the smallest moving body this rank
   !> owns [m], huge() if it owns none. The grid box and the auto minimum separation follow the
   !> smallest over all ranks (the driver reduces it), so every rank uses the same ones.
@@ -162,1302 +286,6 @@ contains
     end if
   end function min_separation_for
 
-  !> smallest_extent: smallest_moving_extent over every rank [m] (default: this rank's).
-  subroutine stage_init(self, deck, shapes, bodies, err, smallest_extent)
-    class(collision_stage_t), intent(inout) :: self
-    type(deck_t), intent(in) :: deck
-    type(shape_library_t), intent(in) :: shapes
-    type(bodies_t), intent(in) :: bodies
-    type(error_t), intent(inout) :: err
-    real(dp), intent(in), optional :: smallest_extent
-    real(dp) :: smallest
-    if (present(smallest_extent)) then
-      smallest = smallest_extent
-    else
-      smallest = smallest_moving_extent(shapes, bodies)
-    end if
-    self%target = min_separation_for(deck, smallest)
-    if (smallest >= huge(1.0_dp)) smallest = 1.0_dp   ! nothing moves: any box will do
-    ! The advancement stops within 10% of the minimum separation above it; contact points
-    ! are all features within one minimum separation of the closest one.
-    self%tolerance = 0.1_dp*self%target
-    self%contact_tolerance = self%target
-    self%velocity_tolerance = 1.0e-9_dp
-    ! Below this approach speed an impact is inelastic (docs/contact.md, "Resting contact"):
-    ! the speed gravity adds in two steps, or the speed of a fall through the separation.
-    if (deck%contact%rest_speed >= 0.0_dp) then
-      self%rest_speed = deck%contact%rest_speed
-    else
-      self%rest_speed = max(2.0_dp*norm2(deck%run%gravity)*deck%run%dt_max, &
-                            sqrt(2.0_dp*norm2(deck%run%gravity)*self%target))
-    end if
-    call self%materials%init(deck)
-    ! Sleeping (docs/contact.md): auto speed 1% of the rest speed, so off without gravity.
-    if (deck%contact%sleep_speed >= 0.0_dp) then
-      call self%sleep%init(bodies%n_owned + bodies%n_ghost, deck%contact%sleep_speed, deck%contact%sleep_time)
-    else
-      call self%sleep%init(bodies%n_owned + bodies%n_ghost, 1.0e-2_dp*self%rest_speed, deck%contact%sleep_time)
-    end if
-    self%settle_speed = max(self%velocity_tolerance, 1.0e-3_dp*self%rest_speed)
-    self%resting%velocity_tolerance = self%velocity_tolerance
-    call choose_box_size([smallest], 1.0_dp, self%box_size, err)
-    if (err%failed()) return
-    ! Each step keeps every body's travel plus the contact band within one grid box
-    ! (limit_step): a band of half a box or more leaves no room to move.
-    if (self%target + self%tolerance >= 0.5_dp*self%box_size) then
-      call err%set(ERR_INPUT, deck%path//': &contact: min_separation = '//str(self%target, '(es10.3)')// &
-                   ' m is too large for the smallest moving body (extent '//str(smallest, '(es10.3)')// &
-                   ' m): it must stay below '//str(0.5_dp*self%box_size/1.1_dp, '(es10.3)')// &
-                   ' m, and well below that for accurate contact')
-      return
-    end if
-    call self%grid%init(self%box_size, err)
-  end subroutine stage_init
-
-  !> The largest step that keeps every body within one grid box: |v| h + |a| h^2 + band <= box
-  !> (a: gravity, or the acceleration of a loaded body, zero; the parabola needs |a| h^2/2, the
-  !> motion at v + g h the contact pass may give |a| h^2; band: the contact band).
-  !> members, when present: only these bodies (an island of the local loop).
-  pure real(dp) function stage_limit_step(self, bodies, flight, gravity, h, members) result(limited)
-    class(collision_stage_t), intent(in) :: self
-    type(bodies_t), intent(in) :: bodies
-    type(free_flight_t), intent(in) :: flight
-    real(dp), intent(in) :: gravity(3), h
-    integer, intent(in), optional :: members(:)
-    real(dp) :: room
-    integer :: i, m
-    limited = h
-    ! Each body enters the grid with its travel bound |v| h + |a| h^2 (prepare) plus the
-    ! contact band: that sum stays within one box, so two rings find every pair.
-    room = self%box_size - (self%target + self%tolerance)
-    if (present(members)) then
-      do m = 1, size(members)
-        call limit_one(members(m))
-      end do
-    else
-      do i = 1, bodies%n_owned
-        call limit_one(i)
-      end do
-    end if
-  contains
-    pure subroutine limit_one(k)
-      integer, intent(in) :: k
-      real(dp) :: speed, g
-      if (bodies%fixed(k)) return
-      g = norm2(flight%acceleration(k, gravity))
-      speed = norm2(bodies%v(:, k))
-      if (speed*limited + g*limited*limited > room) &
-        limited = 2.0_dp*room/(speed + sqrt(speed*speed + 4.0_dp*g*room))
-    end subroutine limit_one
-  end function stage_limit_step
-
-  !> The step's candidate pairs, once per step before the contact pass. Every moving body
-  !> enters the grid with its travel bound over the step h as margin, |v| h + |a| h^2: the
-  !> parabola needs |a| h^2/2, the motion at v + g h that the contact pass gives a loaded
-  !> body |a| h^2 (translation only: the bounding sphere does not grow when a body turns).
-  !> Pairs that cannot come within the contact band in the step are far; the others get
-  !> their gap and normal at the step's start, which the contact pass and the time of
-  !> contact share (the pass changes velocities, not positions).
-  !> margins, when present: the travel bounds to enter the bodies with instead (the pass
-  !> made a body faster than its margin allowed); gaps already known are kept.
-  subroutine stage_prepare(self, bodies, shapes, flight, h, gravity, err, margins)
-    class(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(in) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    type(free_flight_t), intent(in) :: flight
-    real(dp), intent(in) :: h, gravity(3)
-    type(error_t), intent(inout) :: err
-    real(dp), intent(in), optional :: margins(:)
-    real(dp), allocatable :: lower(:, :), upper(:, :), old_gap(:), old_normal(:, :)
-    integer, allocatable :: old_pairs(:, :)
-    logical, allocatable :: old_far(:), old_in_pass(:)
-    integer :: n, i, j, k, n_old, slot
-    real(dp) :: reach
-
-    n = bodies%n_owned + bodies%n_ghost
-    n_old = 0
-    if (present(margins)) then
-      n_old = self%n_pairs
-      old_pairs = self%pairs(:, 1:n_old)
-      old_gap = self%pair_gap0(1:n_old)
-      old_normal = self%pair_normal(:, 1:n_old)
-      old_far = self%pair_far(1:n_old)
-      old_in_pass = self%pair_in_pass(1:n_old)
-    end if
-    self%n_pairs = 0
-    if (n < 2) return
-    if (allocated(self%grid_margin)) then
-      if (size(self%grid_margin) < n) deallocate (self%grid_margin, self%turn)
-    end if
-    if (.not. allocated(self%grid_margin)) allocate (self%grid_margin(n), self%turn(n))
-    do i = 1, n
-      self%turn(i) = turning_reach(shapes, bodies, i)*h
-      if (bodies%fixed(i)) then
-        self%grid_margin(i) = 0.0_dp
-      else if (present(margins)) then
-        self%grid_margin(i) = margins(i)
-      else
-        self%grid_margin(i) = norm2(bodies%v(:, i))*h + norm2(flight%acceleration(i, gravity))*h*h
-      end if
-    end do
-    allocate (lower(3, n), upper(3, n))
-    call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
-    call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)
-    if (err%failed()) return
-    ! Boxes inflated by the travel and the band each: a pair whose boxes stay apart cannot come
-    ! within twice the band in the step (without the band, two balls 0.35 mm apart and
-    ! closing slower than that per step were never listed, and rolled below the floor).
-    call self%grid%candidate_pairs(2, self%grid_margin(1:n) + (self%target + self%tolerance), self%pairs, &
-                                   self%n_pairs, err, n_owned=bodies%n_owned)
-    if (err%failed()) return
-    if (allocated(self%pair_gap0)) then
-      if (size(self%pair_gap0) < self%n_pairs) deallocate (self%pair_gap0, self%pair_normal, self%pair_far, &
-                                                            self%pair_in_pass)
-    end if
-    if (.not. allocated(self%pair_gap0)) allocate (self%pair_gap0(max(self%n_pairs, 16)), &
-      self%pair_normal(3, max(self%n_pairs, 16)), self%pair_far(max(self%n_pairs, 16)), &
-      self%pair_in_pass(max(self%n_pairs, 16)))
-    slot = 1
-    do k = 1, self%n_pairs
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      self%pair_in_pass(k) = .false.
-      ! Both lists are sorted by (first, second): walk the old one alongside.
-      do while (slot <= n_old)
-        if (old_pairs(1, slot) > i .or. (old_pairs(1, slot) == i .and. old_pairs(2, slot) >= j)) exit
-        slot = slot + 1
-      end do
-      if (slot <= n_old) then
-        if (old_pairs(1, slot) == i .and. old_pairs(2, slot) == j .and. .not. old_far(slot)) then
-          self%pair_gap0(k) = old_gap(slot)
-          self%pair_normal(:, k) = old_normal(:, slot)
-          self%pair_far(k) = .false.
-          self%pair_in_pass(k) = old_in_pass(slot)
-          cycle
-        end if
-      end if
-      self%pair_gap0(k) = huge(1.0_dp)
-      self%pair_far(k) = .true.
-      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      ! Bounding spheres and boxes first: a pair that cannot come within the contact band in
-      ! this step costs no closest-point query.
-      reach = self%grid_margin(i) + self%grid_margin(j)
-      self%pair_gap0(k) = gap_lower_bound(shapes, bodies, i, j, reach + 2.0_dp*(self%target + self%tolerance), &
-                                          self%turn(i), self%turn(j))
-      if (self%pair_gap0(k) - reach > 2.0_dp*(self%target + self%tolerance)) cycle
-      self%pair_far(k) = .false.
-      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
-                    self%pair_gap0(k), self%pair_normal(:, k))
-      self%stats%pair_tests = self%stats%pair_tests + 1
-      self%stats%min_separation = min(self%stats%min_separation, self%pair_gap0(k))
-    end do
-  end subroutine stage_prepare
-
-  !> Distance correction of the step's candidate pairs (after prepare): pairs that have
-  !> settled below three quarters of the minimum separation (turning bodies in contact come
-  !> down towards the floor, and a contact solve leaves residuals) are opened to the target
-  !> plus half the tolerance by moving bodies, positions only (velocities, and so kinetic
-  !> energy, stay), by the smallest mass-weighted translations that also keep every other
-  !> candidate pair at least as far apart as it was or at that target, whichever is less:
-  !>     min sum_i m_i |d_i|^2   subject to   g_k + n_k.(d_b - d_a) >= min(g_k, aim) for all k,
-  !>                                          g_k + n_k.(d_b - d_a) >= aim for the low pairs,
-  !> solved by projected Gauss-Seidel over the constraint multipliers (a body in a stack pushes
-  !> the ones above it too, instead of being refused as one pair at a time was). For convex
-  !> pairs g + n.(d_b - d_a) is a lower bound on the new gap (the projections on n move apart
-  !> by that much), so the result holds by construction; every pair of a moved body is then
-  !> measured again, and if one still came closer than allowed (a non-convex pair, or
-  !> an unconverged solve) the move is halved, up to four times, or not made.
-  !> No body moves more than half the band, (target + tolerance)/2, in one step: pairs
-  !> that prepare found far (or never listed) were at least that much beyond reach, so
-  !> they stay out of the band (one low pair never needs more, since gaps stay above
-  !> target/2; a chain of low pairs opens over several steps).
-  subroutine stage_correct_distances(self, bodies, shapes, flight)
-    class(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    type(free_flight_t), intent(inout) :: flight
-    !> Gaps below this fraction of the target are corrected.
-    real(dp), parameter :: trigger = 0.75_dp
-    integer, parameter :: max_sweeps = 200, max_halvings = 4
-    real(dp), allocatable :: lam(:), bound(:), d(:, :), x_saved(:, :), gap_new(:), normal_new(:, :)
-    logical, allocatable :: active(:), moves(:)
-    integer, allocatable :: local(:, :), body_of(:)
-    integer :: n, k, i, j, sweep, halving, nb, li, lj, b
-    real(dp) :: aim, weight, residual, dl, worst, alpha, largest
-    logical :: ok
-    n = bodies%n_owned + bodies%n_ghost
-    if (self%n_pairs == 0) return
-    if (.not. any(.not. self%pair_far(1:self%n_pairs) .and. self%pair_gap0(1:self%n_pairs) < trigger*self%target)) return
-    aim = self%target + 0.5_dp*self%tolerance
-    allocate (lam(self%n_pairs), bound(self%n_pairs), active(self%n_pairs), local(2, self%n_pairs))
-    ! The constraints: every near pair with a moving body.
-    lam = 0.0_dp
-    do k = 1, self%n_pairs
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      active(k) = .not. self%pair_far(k) .and. .not. (bodies%fixed(i) .and. bodies%fixed(j))
-      if (.not. active(k)) cycle
-      bound(k) = min(self%pair_gap0(k), aim)
-      if (self%pair_gap0(k) < trigger*self%target) bound(k) = aim
-    end do
-    ! The bodies of the constraints, numbered locally (a correction costs its pairs, not the
-    ! scene): body_of(1:nb), local(:, k) the local numbers of pair k's bodies.
-    call number_pair_bodies(self, n, active, local, body_of, nb)
-    allocate (d(3, nb), moves(nb))
-    d = 0.0_dp
-    do sweep = 1, max_sweeps
-      worst = 0.0_dp
-      do k = 1, self%n_pairs
-        if (.not. active(k)) cycle
-        i = self%pairs(1, k)
-        j = self%pairs(2, k)
-        li = local(1, k)
-        lj = local(2, k)
-        weight = bodies%inv_mass(i) + bodies%inv_mass(j)
-        if (weight <= 0.0_dp) cycle
-        residual = self%pair_gap0(k) + dot_product(self%pair_normal(:, k), d(:, lj) - d(:, li)) - bound(k)
-        dl = max(-residual/weight, -lam(k))
-        if (dl == 0.0_dp) cycle
-        lam(k) = lam(k) + dl
-        d(:, lj) = d(:, lj) + bodies%inv_mass(j)*dl*self%pair_normal(:, k)
-        d(:, li) = d(:, li) - bodies%inv_mass(i)*dl*self%pair_normal(:, k)
-        worst = max(worst, abs(residual))
-      end do
-      if (worst <= 1.0e-3_dp*self%target) exit
-    end do
-    do b = 1, nb
-      moves(b) = any(d(:, b) /= 0.0_dp) .and. .not. bodies%fixed(body_of(b))
-    end do
-    if (.not. any(moves)) return
-    allocate (x_saved(3, nb))
-    do b = 1, nb
-      x_saved(:, b) = bodies%x(:, body_of(b))
-    end do
-    allocate (gap_new(self%n_pairs), normal_new(3, self%n_pairs))
-    largest = maxval(norm2(d, dim=1), mask=moves)
-    alpha = min(1.0_dp, 0.5_dp*(self%target + self%tolerance)/largest)
-    if (alpha < 1.0_dp) self%stats%corrections_capped = self%stats%corrections_capped + 1
-    do halving = 0, max_halvings
-      do b = 1, nb
-        if (moves(b)) bodies%x(:, body_of(b)) = x_saved(:, b) + alpha*d(:, b)
-      end do
-      ! Measure every pair of a moved body: none may end closer than its bound allows
-      ! (the low ones at least no closer than they were).
-      ok = .true.
-      do k = 1, self%n_pairs
-        if (.not. active(k)) cycle
-        i = self%pairs(1, k)
-        j = self%pairs(2, k)
-        if (.not. (moved(i) .or. moved(j))) cycle
-        call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
-                      gap_new(k), normal_new(:, k))
-        self%stats%pair_tests = self%stats%pair_tests + 1
-        ! (never below the floor target/2, which the gap was above)
-        if (gap_new(k) < max(min(self%pair_gap0(k), bound(k)) - 1.0e-3_dp*self%target, &
-                             min(self%pair_gap0(k), 0.5_dp*self%target))) then
-          ok = .false.
-          exit
-        end if
-      end do
-      if (ok) exit
-      alpha = 0.5_dp*alpha
-    end do
-    if (.not. ok) then
-      do b = 1, nb
-        bodies%x(:, body_of(b)) = x_saved(:, b)
-      end do
-      call clear_numbers()
-      return
-    end if
-    do k = 1, self%n_pairs
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      if (.not. (moved(i) .or. moved(j))) cycle
-      if (active(k)) then
-        self%pair_gap0(k) = gap_new(k)
-        self%pair_normal(:, k) = normal_new(:, k)
-      else if (self%pair_far(k) .and. .not. (bodies%fixed(i) .and. bodies%fixed(j))) then
-        ! a far pair of a moved body is far no more: measured, to keep prepare's promise
-        self%pair_far(k) = .false.
-        call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
-                      self%pair_gap0(k), self%pair_normal(:, k))
-        self%stats%pair_tests = self%stats%pair_tests + 1
-      end if
-      self%stats%min_separation = min(self%stats%min_separation, self%pair_gap0(k))
-    end do
-    do b = 1, nb
-      if (moves(b)) call flight%release(body_of(b))
-    end do
-    self%stats%corrections = self%stats%corrections + count(moves)
-    call clear_numbers()
-  contains
-    logical function moved(body)
-      integer, intent(in) :: body
-      moved = .false.
-      if (self%slot_of(body) > 0) moved = moves(self%slot_of(body))
-    end function moved
-    subroutine clear_numbers()
-      integer :: bb
-      do bb = 1, nb
-        self%slot_of(body_of(bb)) = 0
-      end do
-    end subroutine clear_numbers
-  end subroutine stage_correct_distances
-
-  !> Local numbers 1..nb for the bodies of the active pairs, in order of first appearance
-  !> (body_of(1:nb)); local(:, k): those of pair k's bodies. self%slot_of holds the numbers
-  !> until the caller clears them (it is all zero between calls).
-  subroutine number_pair_bodies(self, n, active, local, body_of, nb)
-    type(collision_stage_t), intent(inout) :: self
-    integer, intent(in) :: n
-    logical, intent(in) :: active(:)
-    integer, intent(out) :: local(:, :)
-    integer, allocatable, intent(out) :: body_of(:)
-    integer, intent(out) :: nb
-    integer :: k, c, body
-    if (allocated(self%slot_of)) then
-      if (size(self%slot_of) < n) deallocate (self%slot_of)
-    end if
-    if (.not. allocated(self%slot_of)) then
-      allocate (self%slot_of(n))
-      self%slot_of = 0
-    end if
-    allocate (body_of(2*count(active)))
-    nb = 0
-    local = 0
-    do k = 1, size(active)
-      if (.not. active(k)) cycle
-      do c = 1, 2
-        body = self%pairs(c, k)
-        if (self%slot_of(body) == 0) then
-          nb = nb + 1
-          body_of(nb) = body
-          self%slot_of(body) = nb
-        end if
-        local(c, k) = self%slot_of(body)
-      end do
-    end do
-  end subroutine number_pair_bodies
-
-  !> Earliest time of contact in [0, h] over all candidate pairs: h_event <= h. The pairs
-  !> that reach contact at h_event are kept for resolve.
-  subroutine stage_earliest_contact(self, bodies, shapes, flight, time_now, h, gravity, config, h_event, err)
-    class(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout), target :: bodies
-    type(shape_library_t), intent(in), target :: shapes
-    type(free_flight_t), intent(inout), target :: flight
-    real(dp), intent(in) :: time_now, h, gravity(3)
-    type(integrator_config_t), intent(in) :: config
-    real(dp), intent(out) :: h_event
-    type(error_t), intent(inout) :: err
-    real(dp), allocatable :: margin(:)
-    type(advancement_result_t) :: res
-    real(dp), allocatable :: pair_time(:)
-    logical, allocatable :: pair_touches(:)
-    integer :: n, i, j, k
-
-    n = bodies%n_owned + bodies%n_ghost
-    h_event = h
-    self%n_events = 0
-    if (n < 2) return
-    ! The pairs of prepare, unless the contact pass made a body travel further than the
-    ! margin it was entered with (or the grid cut the step since): then the grid again,
-    ! keeping the gaps already known.
-    allocate (margin(n))
-    do i = 1, n
-      ! The bounding sphere does not move when the body turns: only translation grows it.
-      margin(i) = 0.0_dp
-      if (.not. bodies%fixed(i)) margin(i) = norm2(bodies%v(:, i))*h + 0.5_dp*norm2(flight%acceleration(i, gravity))*h*h
-    end do
-    if (.not. allocated(self%grid_margin)) then
-      call self%prepare(bodies, shapes, flight, h, gravity, err)
-    else if (size(self%grid_margin) < n) then
-      call self%prepare(bodies, shapes, flight, h, gravity, err)
-    else if (any(margin > self%grid_margin(1:n)) .or. &
-             any([(turning_reach(shapes, bodies, i)*h > self%turn(i), i=1, n)])) then
-      call self%prepare(bodies, shapes, flight, h, gravity, err, margins=max(margin, self%grid_margin(1:n)))
-    end if
-    if (err%failed()) return
-    if (self%n_pairs == 0) return
-
-    allocate (pair_time(self%n_pairs), pair_touches(self%n_pairs))
-    pair_touches = .false.
-    pair_time = huge(1.0_dp)
-    ! Gaps at the step's start: prepare's, after the distance correction.
-    do k = 1, self%n_pairs
-      if (self%pair_far(k)) cycle
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      call self%advance_candidate(bodies, shapes, flight, gravity, config, time_now, k, h_event, self%max_iterations, &
-                                  res)
-      if (res%capped) self%stats%capped = self%stats%capped + 1
-      if (res%contact .or. res%capped) then
-        pair_time(k) = res%time
-        ! A capped pair only shortens the step (it is still above its floor): nothing to
-        ! resolve there, unless it cannot advance at all (the stall guard counts those).
-        pair_touches(k) = res%contact .or. res%time == 0.0_dp
-        if (res%time == 0.0_dp) then
-          self%stalled_pair = [bodies%gid(i), bodies%gid(j)]
-        end if
-        ! Later pairs only need to be advanced up to the earliest time found so far.
-        h_event = min(h_event, res%time)
-      end if
-    end do
-    ! The pairs that reach contact at the chosen time (capped ones only shorten the step).
-    self%n_events = count(pair_time <= h_event .and. pair_touches)
-    if (allocated(self%event_pairs)) deallocate (self%event_pairs)
-    allocate (self%event_pairs(2, self%n_events))
-    self%n_events = 0
-    do k = 1, self%n_pairs
-      if (pair_time(k) <= h_event .and. pair_touches(k)) then
-        self%n_events = self%n_events + 1
-        self%event_pairs(:, self%n_events) = self%pairs(:, k)
-      end if
-    end do
-  end subroutine stage_earliest_contact
-
-  !> Time of contact of candidate pair k of the step's table over [0, step] from time_now
-  !> (bodies at time_now), by conservative advancement, with what the pair is: solved by the
-  !> contact pass (an inelastic pair may come down to the settling floor), in the band and
-  !> receding (it may settle), hovering just above the band, or an approach to the target;
-  !> turning pairs start from the second-order safe time (plane_bound) and receding ones are
-  !> re-tested along the step (extend_receding). One pair's part of earliest_contact, and what
-  !> the local event loop computes for a pair whose certificate is due.
-  subroutine stage_advance_candidate(self, bodies, shapes, flight, gravity, config, time_now, k, step, &
-                                     max_iterations, res)
-    class(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout), target :: bodies
-    type(shape_library_t), intent(in), target :: shapes
-    type(free_flight_t), intent(inout), target :: flight
-    real(dp), intent(in) :: gravity(3), time_now
-    type(integrator_config_t), intent(in) :: config
-    integer, intent(in) :: k
-    real(dp), intent(in) :: step          !< [s] from time_now
-    integer, intent(in) :: max_iterations
-    type(advancement_result_t), intent(out) :: res
-    type(pair_oracle_t) :: oracle
-    type(pair_motion_t) :: motion
-    real(dp) :: gap0, normal0(3), safe, floor
-    logical :: hovering, solved, receding
-    integer :: i, j
-    i = self%pairs(1, k)
-    j = self%pairs(2, k)
-    gap0 = self%pair_gap0(k)
-    normal0 = self%pair_normal(:, k)
-    ! Inelastic pairs the contact pass solved (in the band, or speculative: not yet touching),
-    ! still above the floor: their contact points may approach only as fast as closes them to
-    ! the band in the step, and whatever the solve left is bounded below as it is.
-    solved = self%pair_in_pass(k) .and. gap0 > 0.5_dp*self%target + self%tolerance
-    if (solved) solved = self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j)) <= 0.0_dp
-    motion = pair_motion(shapes, bodies, flight, i, j, gravity)
-    ! In the contact band, measure whether any contact point really approaches: the bound's
-    ! turning term (Omega r) says "may approach" for every spinning pair in contact.
-    ! Receding pairs settle towards the floor instead of stopping the run (pairs already
-    ! near the floor were opened by correct_distances at the step's start).
-    receding = .false.
-    if (.not. (gap0 > self%target + self%tolerance .or. solved)) then
-      if (band_rate(motion, normal0) > self%velocity_tolerance) &
-        receding = .not. approaching(self, bodies, shapes, i, j, gap0, normal0)
-    end if
-    oracle%flight => flight
-    oracle%bodies => bodies
-    oracle%shapes => shapes
-    oracle%config = config
-    oracle%time_now = time_now
-    oracle%gravity = gravity
-    oracle%i = i
-    oracle%j = j
-    oracle%min_gap = huge(1.0_dp)
-    ! Turning bodies: the second-order bound (plane_bound) skips the part of the step in
-    ! which the pair provably stays above the band (or, settling in the band, above the
-    ! floor). A pair hovering just above the band (within one target, its centres closing
-    ! slower than the rest speed: a tumbling body about to rest) may come down to 3/4 of
-    ! the target instead, or the first-order bound would crawl towards the band in tiny
-    ! steps; such a contact is a resting one, not an impact whose timing matters.
-    safe = 0.0_dp
-    hovering = .false.
-    if (solved) then
-      ! A solved pair may come down to the settling floor; only there is it an event.
-      ! Turning pairs: the second-order bound, re-tested along the step (extend_receding),
-      ! with the first-order bound crawl-limited.
-      if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
-        safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target + self%tolerance, &
-                               step)
-        if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
-      end if
-      call advance_pair(oracle, motion, gap0, normal0, step, 0.5_dp*self%target, self%tolerance, &
-                        0.5_dp*self%target, self%velocity_tolerance, max_iterations, res, safe_time=safe, &
-                        hovering=.true.)
-    else
-      if (motion%omega_r_a + motion%omega_r_b > 0.0_dp) then
-        if (gap0 > self%target + self%tolerance) then
-          floor = self%target + self%tolerance
-          hovering = gap0 < 2.0_dp*self%target .and. dot_product(normal0, motion%v_a - motion%v_b) <= self%rest_speed
-          if (hovering) floor = 0.75_dp*self%target
-          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, floor, step)
-        else if (receding .or. band_rate(motion, normal0) <= self%velocity_tolerance) then
-          safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal0, 0.5_dp*self%target, step)
-        end if
-        if (safe > 0.0_dp) self%stats%plane_skips = self%stats%plane_skips + 1
-      end if
-      call advance_pair(oracle, motion, gap0, normal0, step, self%target, self%tolerance, 0.5_dp*self%target, &
-                        self%velocity_tolerance, max_iterations, res, receding=receding, safe_time=safe, &
-                        hovering=hovering)
-    end if
-    self%stats%advancement_iterations = self%stats%advancement_iterations + res%iterations
-    self%stats%min_separation = min(self%stats%min_separation, oracle%min_gap)
-    if ((receding .or. solved) .and. (res%contact .or. res%capped) .and. res%time > 0.0_dp .and. &
-        res%time < step .and. flight%exact) then
-      call extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, step, res, solved)
-    end if
-  end subroutine stage_advance_candidate
-
-  !> A pair in the band whose contact points recede (a tumbling body sliding or rolling
-  !> over another) advances only to its second-order safe time, a few microseconds when the
-  !> bodies turn fast, and is then still in the band: without more, every such pair ended
-  !> the global step there (three quarters of the steps of a landing pile of tetrahedra).
-  !> The safe time was computed from the step's start; at its end the state is known
-  !> exactly (the propagator's anchored flight), so the same test is repeated from there:
-  !> the gap measured, the contact points still receding, a new safe time down to the same
-  !> floor. At most max_extensions times; the pair stops where a test fails (as before,
-  !> an event there). Nothing is assumed beyond what the first test checked at t = 0.
-  !> solved: the pair was solved by the contact pass (an inelastic pair): it may come down
-  !> to the floor from anywhere, at any speed the bound allows, so neither leaving the band
-  !> nor an approach ends the re-tests; only the floor does.
-  subroutine extend_receding(self, bodies, shapes, flight, gravity, config, time_now, i, j, h_limit, res, solved)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    type(free_flight_t), intent(inout) :: flight
-    real(dp), intent(in) :: gravity(3), time_now, h_limit
-    type(integrator_config_t), intent(in) :: config
-    integer, intent(in) :: i, j
-    type(advancement_result_t), intent(inout) :: res
-    logical, intent(in), optional :: solved
-    integer, parameter :: max_extensions = 8
-    logical :: floor_only
-    real(dp) :: saved_x(3, 2), saved_q(4, 2), saved_v(3, 2), saved_w(3, 2), t, gap, normal(3), safe
-    real(dp) :: x_t(3), q_t(4), w_t(3)
-    integer :: extension, pair(2), b
-    floor_only = .false.
-    if (present(solved)) floor_only = solved
-    pair = [i, j]
-    do b = 1, 2
-      saved_x(:, b) = bodies%x(:, pair(b))
-      saved_q(:, b) = bodies%q(:, pair(b))
-      saved_v(:, b) = bodies%v(:, pair(b))
-      saved_w(:, b) = bodies%w(:, pair(b))
-    end do
-    t = res%time
-    do extension = 1, max_extensions
-      ! The two bodies as the propagator will have them at t (the others do not enter).
-      do b = 1, 2
-        if (bodies%fixed(pair(b))) cycle
-        ! (anchored at the step's start by the first call, from the unchanged state)
-        call flight%pose_at(bodies, pair(b), time_now, t, gravity, config, x_t, q_t, w_t)
-        bodies%x(:, pair(b)) = x_t
-        bodies%q(:, pair(b)) = q_t
-        bodies%w(:, pair(b)) = w_t
-        bodies%v(:, pair(b)) = saved_v(:, b) + t*flight%acceleration(pair(b), gravity)
-      end do
-      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
-      self%stats%pair_tests = self%stats%pair_tests + 1
-      self%stats%min_separation = min(self%stats%min_separation, gap)
-      if (gap <= 0.5_dp*self%target + self%tolerance) exit
-      if (.not. floor_only) then
-        if (gap > self%target + self%tolerance) exit
-        ! Contact points closing slower than the rest speed (rolling brings them down at second
-        ! order) may settle towards the floor, as at the step's start: the plane bound holds for
-        ! any motion, so it bounds them. Faster ones are impacts: the step ends for them.
-        if (approaching(self, bodies, shapes, i, j, gap, normal, self%rest_speed)) exit
-      end if
-      safe = plane_safe_time(shapes, bodies, flight, gravity, i, j, normal, 0.5_dp*self%target, h_limit - t)
-      if (safe <= 0.0_dp) exit
-      self%stats%plane_skips = self%stats%plane_skips + 1
-      t = min(t + safe, h_limit)
-      if (t >= h_limit) exit
-    end do
-    do b = 1, 2
-      bodies%x(:, pair(b)) = saved_x(:, b)
-      bodies%q(:, pair(b)) = saved_q(:, b)
-      bodies%v(:, pair(b)) = saved_v(:, b)
-      bodies%w(:, pair(b)) = saved_w(:, b)
-    end do
-    if (t >= h_limit) then
-      res%contact = .false.
-      res%capped = .false.
-      res%time = h_limit
-    else
-      res%time = t
-      ! a solved pair stops at the floor (an event), or where the bound could not go on
-      ! while it was still above the floor (a shorter step, nothing to resolve)
-      if (floor_only) then
-        res%contact = gap <= 0.5_dp*self%target + self%tolerance
-        res%capped = .not. res%contact
-      end if
-    end if
-  end subroutine extend_receding
-
-  !> Closing rate of the pair's bound at the step's start (as time_of_contact forms it).
-  pure real(dp) function band_rate(motion, n)
-    type(pair_motion_t), intent(in) :: motion
-    real(dp), intent(in) :: n(3)
-    if (motion%convex) then
-      band_rate = dot_product(n, motion%v_a - motion%v_b) + motion%omega_r_a + motion%omega_r_b
-    else
-      band_rate = norm2(motion%v_a - motion%v_b) + motion%omega_r_a + motion%omega_r_b
-    end if
-  end function band_rate
-
-  !> Does any contact point of the pair approach? The same contact points as resolve
-  !> builds (pair_contact_points), so that a pair resolve has made non-approaching is seen
-  !> as such here.
-  !> speed [m/s], when present: approaching means faster than this (default: the settle speed).
-  logical function approaching(self, bodies, shapes, i, j, gap, normal, speed)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(in) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    integer, intent(in) :: i, j
-    real(dp), intent(in) :: gap, normal(3)
-    real(dp), intent(in), optional :: speed
-    type(contact_t), allocatable :: points(:)
-    integer(i8), allocatable :: keys(:, :)
-    integer :: c, n_points
-    real(dp) :: limit
-    limit = self%settle_speed
-    if (present(speed)) limit = speed
-    n_points = 0
-    call pair_contact_points(shapes, bodies, i, j, gap, normal, self%contact_tolerance, points, keys, n_points, &
-                             self%features)
-    approaching = .false.
-    do c = 1, n_points
-      if (normal_velocity(bodies, points(c)) < -limit) then
-        approaching = .true.
-        return
-      end if
-    end do
-  end function approaching
-
-  !> Contact points of every candidate pair within the contact band, gathered into
-  !> self%contacts(1:n_contacts) with their keys (restitution and friction of the pair).
-  subroutine gather_contacts(self, bodies, shapes, n_contacts)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(in) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    integer, intent(out) :: n_contacts
-    integer :: k, i, j, first
-    real(dp) :: gap, normal(3), band
-    n_contacts = 0
-    band = self%target + self%tolerance + self%contact_tolerance
-    do k = 1, self%n_pairs
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      if (gap_lower_bound(shapes, bodies, i, j, band) > band) cycle
-      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
-      self%stats%min_separation = min(self%stats%min_separation, gap)
-      if (gap > band) cycle
-      first = n_contacts + 1
-      call pair_contact_points(shapes, bodies, i, j, gap, normal, self%contact_tolerance, self%contacts, self%keys, &
-                               n_contacts, self%features)
-      self%contacts(first:n_contacts)%restitution = &
-        self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j))
-      self%contacts(first:n_contacts)%friction = self%materials%pair_friction(bodies%group_id(i), bodies%group_id(j))
-    end do
-  end subroutine gather_contacts
-
-  !> The contact pass at the start of a step of h [s] (resting_contact), over the step's
-  !> candidate pairs (prepare):
-  !>  - contact points of pairs within the contact band (gap up to target + tolerance +
-  !>    contact tolerance) that do not separate faster than gravity can close in the step
-  !>    are persistent: for inelastic pairs (e = 0) at any approach speed (an inelastic impact
-  !>    is what the pass does), for others only up to the rest speed (faster ones are
-  !>    impacts, left to the event with their restitution);
-  !>  - inelastic pairs further apart that can reach the band within the step get
-  !>    speculative contact points: they may approach at up to the speed that closes their
-  !>    gap to the target in the step (contact_t%allowed_approach), and join the solve when
-  !>    they would approach faster (they would touch within the step). A landing is then
-  !>    solved with the step instead of cutting it at the time of contact; conservative
-  !>    advancement still checks the motion (the pair may come down to the settling floor).
-  !> Solved with e = 0 and friction; sets the loads the propagator applies over the step.
-  !> members, when present: the island of the local event loop this pass is for (its pairs
-  !> are the step's pairs, its sleeping neighbours already woken by the caller); those of
-  !> them in no persistent contact fly free. Default: the whole scene (the global loop).
-  subroutine stage_contact_pass(self, bodies, shapes, flight, h, gravity, err, members)
-    class(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    type(free_flight_t), intent(inout) :: flight
-    real(dp), intent(in) :: h, gravity(3)
-    type(error_t), intent(inout) :: err
-    integer, intent(in), optional :: members(:)
-    logical, allocatable :: persistent(:)
-    real(dp), allocatable :: u_start(:)
-    integer :: n, i, n_contacts, c, kept, round
-    real(dp) :: separating_limit
-    logical :: grew, woke
-    n = bodies%n_owned + bodies%n_ghost
-    n_contacts = 0
-    self%pass_step = h
-    self%n_band_pairs = 0
-    call ensure_held(self, n)
-    if (n >= 2 .and. h > 0.0_dp) then
-      ! Each round wakes at least one island: at most as many rounds as islands asleep.
-      do round = 1, n + 1
-        call pass_contacts(self, bodies, shapes, h, n_contacts)
-        if (present(members)) exit
-        call wake_reached(self, bodies, flight, h, gravity, n_contacts, woke)
-        if (.not. woke) exit
-        ! the woken bodies' pairs with each other were static-static pairs, never listed
-        call self%prepare(bodies, shapes, flight, h, gravity, err)
-        if (err%failed()) return
-      end do
-      call record_band_pairs(self, n_contacts)
-    end if
-    kept = 0
-    if (n_contacts > 0) then
-      allocate (persistent(n_contacts))
-      ! Contacts separating faster than gravity can close in the step need no impulse; leaving
-      ! them out keeps a body that bounces off the floor on its exact parabola.
-      separating_limit = 2.0_dp*norm2(gravity)*h + self%velocity_tolerance
-      allocate (u_start(n_contacts))
-      do c = 1, n_contacts
-        u_start(c) = normal_velocity(bodies, self%contacts(c))
-        if (self%contacts(c)%allowed_approach > 0.0_dp) then
-          persistent(c) = speculative_active(c)
-        else if (self%contacts(c)%restitution <= 0.0_dp) then
-          persistent(c) = u_start(c) <= separating_limit
-        else
-          persistent(c) = u_start(c) >= -self%rest_speed .and. u_start(c) <= separating_limit
-        end if
-        if (persistent(c)) call hold(c)
-      end do
-      ! ... but a body the pass will push keeps all its contacts in the band (and its
-      ! speculative ones) as constraints, or the push could turn a separating contact of it
-      ! into an approaching one. That holds the body at the contact's other end too, so this
-      ! runs to a fixed point: with one sweep, a chain held -> held -> spinning body left the
-      ! last body's separating contact out, the pass turned it into an approaching one, the
-      ! event at time 0 took the pass back, and the run stalled (27-cube pile).
-      do
-        grew = .false.
-        do c = 1, n_contacts
-          if (persistent(c)) cycle
-          if (.not. (self%held(self%contacts(c)%a) .or. self%held(self%contacts(c)%b))) cycle
-          if (self%contacts(c)%restitution > 0.0_dp .and. u_start(c) < -self%rest_speed) cycle
-          persistent(c) = .true.
-          call hold(c)
-          grew = .true.
-        end do
-        if (.not. grew) exit
-      end do
-      kept = count(persistent)
-      do c = 1, n_contacts
-        if (persistent(c)) self%pair_in_pass(self%contact_pair(c)) = .true.
-        self%held(self%contacts(c)%a) = .false.
-        self%held(self%contacts(c)%b) = .false.
-      end do
-      if (kept < n_contacts) then
-        self%contacts(1:kept) = pack(self%contacts(1:n_contacts), persistent)
-        self%keys(:, 1:kept) = self%keys(:, pack([(c, c=1, n_contacts)], persistent))
-      end if
-    end if
-    if (kept > 0 .and. h > 0.0_dp) then
-      call self%resting%solve(bodies, flight, self%contacts(1:kept), self%keys(:, 1:kept), kept, h, gravity, err, &
-                              members)
-    else if (present(members)) then
-      do i = 1, size(members)
-        if (members(i) <= bodies%n_owned) call flight%clear_load(members(i))
-      end do
-    else
-      do i = 1, bodies%n_owned
-        call flight%clear_load(i)
-      end do
-    end if
-  contains
-
-    subroutine hold(cc)
-      integer, intent(in) :: cc
-      self%held(self%contacts(cc)%a) = .not. bodies%fixed(self%contacts(cc)%a)
-      self%held(self%contacts(cc)%b) = .not. bodies%fixed(self%contacts(cc)%b)
-    end subroutine hold
-
-    !> A speculative contact joins on its own when, with gravity's impulse for the step, it
-    !> would approach faster than it may: the pair would touch within the step.
-    logical function speculative_active(cc)
-      integer, intent(in) :: cc
-      speculative_active = u_start(cc) + gravity_closing(bodies, self%contacts(cc), gravity, h) < &
-                           -self%contacts(cc)%allowed_approach
-    end function speculative_active
-
-  end subroutine stage_contact_pass
-
-  !> The pass's per-body flags, all false between passes (set and cleared for its contacts'
-  !> bodies only: a pass costs its contacts, not the scene).
-  subroutine ensure_held(self, n)
-    type(collision_stage_t), intent(inout) :: self
-    integer, intent(in) :: n
-    if (allocated(self%held)) then
-      if (size(self%held) >= n) return
-      deallocate (self%held)
-    end if
-    allocate (self%held(n))
-    self%held = .false.
-  end subroutine ensure_held
-
-  !> Change of a contact's normal velocity from gravity's impulse over h for the moving bodies
-  !> (zero when both move: gravity does not change their relative velocity) [m/s].
-  pure real(dp) function gravity_closing(bodies, c, gravity, h)
-    type(bodies_t), intent(in) :: bodies
-    type(contact_t), intent(in) :: c
-    real(dp), intent(in) :: gravity(3), h
-    gravity_closing = 0.0_dp
-    if (.not. bodies%fixed(c%b)) gravity_closing = gravity_closing + dot_product(c%normal, gravity)*h
-    if (.not. bodies%fixed(c%a)) gravity_closing = gravity_closing - dot_product(c%normal, gravity)*h
-  end function gravity_closing
-
-  !> The contact pass's contact points, from the step's candidate pairs (prepare) into
-  !> self%contacts(1:n_contacts), with their keys and candidate pairs: every pair within the
-  !> contact band, and the inelastic pairs that can reach it within the step h as
-  !> speculative contacts (allowed_approach: the speed that closes each contact point's own
-  !> feature gap to target + tolerance in the step).
-  subroutine pass_contacts(self, bodies, shapes, h, n_contacts)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(in) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    real(dp), intent(in) :: h
-    integer, intent(out) :: n_contacts
-    integer :: k, i, j, first, c
-    real(dp) :: gap, band, aim, restitution, reach
-    integer, allocatable :: grown(:)
-    n_contacts = 0
-    band = self%target + self%tolerance + self%contact_tolerance
-    aim = self%target + self%tolerance
-    do k = 1, self%n_pairs
-      if (self%pair_far(k)) cycle
-      i = self%pairs(1, k)
-      j = self%pairs(2, k)
-      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
-      gap = self%pair_gap0(k)
-      restitution = self%materials%pair_restitution(bodies%group_id(i), bodies%group_id(j))
-      ! how far the pair can close in the step (translation and turning)
-      reach = self%grid_margin(i) + self%grid_margin(j) + self%turn(i) + self%turn(j)
-      if (gap > band) then
-        if (restitution > 0.0_dp) cycle
-        if (gap - band > reach) cycle
-      end if
-      first = n_contacts + 1
-      if (restitution > 0.0_dp) then
-        call pair_contact_points(shapes, bodies, i, j, gap, self%pair_normal(:, k), self%contact_tolerance, &
-                                 self%contacts, self%keys, n_contacts, self%features)
-      else
-        ! every feature pair that can touch within the step (another edge of a tumbling body
-        ! coming down), each allowed to close to the target and no further
-        call pair_contact_points(shapes, bodies, i, j, gap, self%pair_normal(:, k), self%contact_tolerance, &
-                                 self%contacts, self%keys, n_contacts, self%features, search=min(reach, band + reach - gap))
-      end if
-      self%contacts(first:n_contacts)%restitution = restitution
-      self%contacts(first:n_contacts)%friction = self%materials%pair_friction(bodies%group_id(i), bodies%group_id(j))
-      ! inelastic pairs: every contact point may close to the band (target + tolerance) in the
-      ! step and no further; elastic ones (slow, in the band) may not approach at all
-      if (restitution <= 0.0_dp) then
-        do c = first, n_contacts
-          self%contacts(c)%allowed_approach = max(self%contacts(c)%gap - aim, 0.0_dp)/h
-        end do
-      end if
-      if (.not. allocated(self%contact_pair)) allocate (self%contact_pair(max(64, size(self%contacts))))
-      if (size(self%contact_pair) < n_contacts) then
-        allocate (grown(2*n_contacts))
-        grown(1:first - 1) = self%contact_pair(1:first - 1)
-        call move_alloc(grown, self%contact_pair)
-      end if
-      self%contact_pair(first:n_contacts) = k
-    end do
-  end subroutine pass_contacts
-
-  !> Sleeping islands that a moving body reaches wake: contacts in the band, and speculative
-  !> ones that would touch within the step (the impact is then solved with the island's
-  !> real masses, not against a support that cannot give way).
-  subroutine wake_reached(self, bodies, flight, h, gravity, n_contacts, woke)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(free_flight_t), intent(inout) :: flight
-    real(dp), intent(in) :: h, gravity(3)
-    integer, intent(in) :: n_contacts
-    logical, intent(out) :: woke
-    logical, allocatable :: reached(:)
-    integer :: c
-    woke = .false.
-    if (self%sleep%n_asleep == 0 .or. n_contacts == 0) return
-    allocate (reached(n_contacts))
-    do c = 1, n_contacts
-      associate (con => self%contacts(c))
-        reached(c) = con%allowed_approach <= 0.0_dp
-        if (.not. reached(c)) reached(c) = normal_velocity(bodies, con) + gravity_closing(bodies, con, gravity, h) < &
-                                           -con%allowed_approach
-      end associate
-    end do
-    call self%sleep%wake_touching(bodies, flight, pack(self%contacts(1:n_contacts), reached), woke)
-  end subroutine wake_reached
-
-  !> An impact inside a group of contacts too large for the exact solve: inelastic, with
-  !> Coulomb friction, by projected Gauss-Seidel from zero impulses (dissipative, and every
-  !> contact left approaching is caught by remove_residual_approach and, past that, by the
-  !> next time of contact).
-  subroutine solve_large_groups(self, bodies, contacts)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(contact_t), intent(in) :: contacts(:)
-    real(dp), allocatable :: impulse(:, :)
-    allocate (impulse(3, size(contacts)))
-    impulse = 0.0_dp
-    call solve_contacts_pgs(bodies, contacts, impulse, self%resting%tolerance, self%resting%max_sweeps, &
-                            self%impact_friction)
-  end subroutine solve_large_groups
-
-  !> Safety net after the impulse solvers: the exact projection can stop at its iteration cap
-  !> on rank-deficient groups (many contact points on few bodies), leaving contacts that
-  !> still approach, which would stop the next step at once. Frictionless projected
-  !> Gauss-Seidel (monotone, convergent for any positive semi-definite contact matrix)
-  !> removes what is left down to a thousandth of the settle speed.
-  subroutine remove_residual_approach(self, bodies, contacts)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(contact_t), intent(in) :: contacts(:)
-    type(contact_t), allocatable :: frictionless(:)
-    real(dp), allocatable :: impulse(:, :)
-    integer :: c
-    if (.not. any([(normal_velocity(bodies, contacts(c)) < -self%settle_speed, c=1, size(contacts))])) return
-    frictionless = contacts
-    frictionless%friction = 0.0_dp
-    allocate (impulse(3, size(contacts)))
-    impulse = 0.0_dp
-    call solve_contacts_pgs(bodies, frictionless, impulse, 1.0e-3_dp*self%settle_speed, 5000, self%residual_pgs)
-  end subroutine remove_residual_approach
-
-  !> The contact pass gave the bodies it pushed the velocity change of the whole planned
-  !> step (gravity's impulse and the contact impulses that answer it); when an event (or the
-  !> grid) cut the step short, the part for the time not taken is taken back: the velocity
-  !> becomes v_start + (h_taken/h) dv, so cut steps do not pump energy in. That is a convex
-  !> combination of the start velocity and the solved one, so a persistent contact that
-  !> approached at neither does not approach now. The motion over the step was the one
-  !> conservative advancement checked; only the velocities change.
-  !> members and pass_step, when present: an island of the local loop, whose own pass was
-  !> for a step of pass_step [s] (default: every owned body, the last pass's step).
-  subroutine stage_return_unused_pass(self, bodies, flight, h_taken, members, pass_step)
-    class(collision_stage_t), intent(in) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(free_flight_t), intent(inout) :: flight
-    real(dp), intent(in) :: h_taken   !< the step taken [s]
-    integer, intent(in), optional :: members(:)
-    real(dp), intent(in), optional :: pass_step
-    real(dp) :: unused, planned
-    integer :: i, m
-    planned = self%pass_step
-    if (present(pass_step)) planned = pass_step
-    if (h_taken >= planned) return
-    unused = 1.0_dp - h_taken/planned
-    if (present(members)) then
-      do m = 1, size(members)
-        call take_back(members(m))
-      end do
-    else
-      do i = 1, bodies%n_owned
-        call take_back(i)
-      end do
-    end if
-  contains
-    subroutine take_back(k)
-      integer, intent(in) :: k
-      if (k > bodies%n_owned) return
-      if (bodies%fixed(k) .or. .not. flight%loaded(k)) return
-      bodies%v(:, k) = bodies%v(:, k) - unused*self%resting%dv(:, k)
-      bodies%w(:, k) = bodies%w(:, k) - unused*self%resting%dw(:, k)
-      call flight%release(k)
-    end subroutine take_back
-  end subroutine stage_return_unused_pass
-
-  !> After the bodies moved to the event: contact points of every pair in contact (the
-  !> event pairs, and every candidate pair touching them, so a group is solved together),
-  !> simultaneous impulses, and the anchors of the bodies whose velocities changed.
-  !> Contacts approaching slower than the rest speed are inelastic; with friction, the
-  !> normal impulses bound the friction impulses of the same impact (Coulomb's cone), and if
-  !> friction makes a contact approach again the inelastic projection closes the loop.
-  !> time [s], when present: the event's time, for the event log (log_events).
-  subroutine stage_resolve(self, bodies, shapes, flight, h_event, h_planned, err, time)
-    class(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    type(free_flight_t), intent(inout) :: flight
-    real(dp), intent(in) :: h_event     !< the step taken [s]
-    real(dp), intent(in) :: h_planned   !< the step before the contact cut it [s]
-    type(error_t), intent(inout) :: err
-    real(dp), intent(in), optional :: time
-    integer :: i, c, n_contacts, n_moving
-    integer, allocatable :: moving(:), side(:, :)
-    real(dp), allocatable :: v_old(:, :), w_old(:, :), normal_impulse(:), friction_impulse(:, :)
-    logical, allocatable :: large(:)
-    logical :: woke
-
-    if (self%n_events == 0) return
-    self%stats%events = self%stats%events + 1
-    ! Steps of no length, or of a length that cannot move the clock (1e-15 of the step it
-    ! replaced), count towards the stall guard.
-    if (h_event <= 1.0e-15_dp*max(h_planned, tiny(1.0_dp))) then
-      self%zero_steps = self%zero_steps + 1
-    else
-      self%zero_steps = 0
-    end if
-    ! Checked here, before the returns below: a step of length 0 whose event pair is not in
-    ! the band (no contact point, nothing solved) is the same stall, and used to repeat
-    ! forever unreported.
-    if (self%zero_steps > 1000) then
-      call err%set(ERR_NUMERIC, 'collision loop stalled: 1000 steps of zero length at a persistent contact '// &
-                   'between bodies '//str(self%stalled_pair(1))//' and '//str(self%stalled_pair(2))// &
-                   ' (smallest separation '//str(self%stats%min_separation)//' m)')
-      return
-    end if
-    ! Every candidate pair within the contact band joins, so touching neighbours (a cradle,
-    ! a box on four corners) are solved in one simultaneous group.
-    call gather_contacts(self, bodies, shapes, n_contacts)
-    call keep_event_groups(self, bodies, n_contacts)
-    if (n_contacts == 0) return
-    ! A body that hits a sleeping island wakes it: the impact is solved with it awake.
-    call self%sleep%wake_touching(bodies, flight, self%contacts(1:n_contacts), woke)
-    if (woke) then
-      call collect_band_contacts(self, bodies, shapes, flight, n_contacts, err)
-      if (err%failed()) return
-      call keep_event_groups(self, bodies, n_contacts)
-    end if
-    self%stats%contacts = self%stats%contacts + n_contacts
-    do c = 1, n_contacts
-      if (normal_velocity(bodies, self%contacts(c)) > -self%rest_speed) self%contacts(c)%restitution = 0.0_dp
-    end do
-    ! the bodies the impulses can change, and their velocities before
-    call group_members(bodies, self%contacts(1:n_contacts), moving, n_moving, side)
-    allocate (v_old(3, n_moving), w_old(3, n_moving))
-    do c = 1, n_moving
-      v_old(:, c) = bodies%v(:, moving(c))
-      w_old(:, c) = bodies%w(:, moving(c))
-    end do
-    allocate (normal_impulse(n_contacts), large(n_contacts))
-    call resolve_impacts(bodies, self%contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, &
-                         self%impulses, err, normal_impulse, self%resting%projection_limit, large)
-    if (err%failed()) return
-    ! Groups too large for the exact solve (a pile in contact): inelastic, with friction, by
-    ! projected Gauss-Seidel; their normal impulses are left out of the friction step below,
-    ! which this solve has done for them.
-    if (any(large)) call solve_large_groups(self, bodies, pack(self%contacts(1:n_contacts), large))
-    if (any(self%contacts(1:n_contacts)%friction > 0.0_dp) .and. any(normal_impulse > 0.0_dp)) then
-      allocate (friction_impulse(3, n_contacts))
-      friction_impulse = 0.0_dp
-      call solve_contacts_pgs(bodies, self%contacts(1:n_contacts), friction_impulse, self%resting%tolerance, &
-                              self%resting%max_sweeps, self%impact_friction, fixed_normal=normal_impulse)
-      if (any([(normal_velocity(bodies, self%contacts(c)) < -self%velocity_tolerance, c=1, n_contacts)])) then
-        self%contacts(1:n_contacts)%restitution = 0.0_dp
-        call resolve_impacts(bodies, self%contacts(1:n_contacts), self%velocity_tolerance, self%max_rounds, &
-                             self%impulses, err, max_group=self%resting%projection_limit, large=large)
-        if (err%failed()) return
-        if (any(large)) call solve_large_groups(self, bodies, pack(self%contacts(1:n_contacts), large))
-      end if
-    end if
-    call remove_residual_approach(self, bodies, self%contacts(1:n_contacts))
-    do c = 1, n_moving
-      i = moving(c)
-      if (i > bodies%n_owned) cycle
-      if (any(v_old(:, c) /= bodies%v(:, i)) .or. any(w_old(:, c) /= bodies%w(:, i))) then
-        call flight%release(i)
-        if (self%log_events .and. present(time)) call log_impulse(self, bodies, i, time, v_old(:, c), w_old(:, c))
-      end if
-    end do
-  end subroutine stage_resolve
-
-  !> One row of the event log: body i's linear and angular impulse at an event at time.
-  subroutine log_impulse(self, bodies, i, time, v_old, w_old)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(in) :: i
-    real(dp), intent(in) :: time, v_old(3), w_old(3)
-    real(dp), allocatable :: grown(:, :)
-    if (.not. allocated(self%log_rows)) allocate (self%log_rows(8, 256))
-    if (self%n_log == size(self%log_rows, 2)) then
-      allocate (grown(8, 2*self%n_log))
-      grown(:, 1:self%n_log) = self%log_rows(:, 1:self%n_log)
-      call move_alloc(grown, self%log_rows)
-    end if
-    self%n_log = self%n_log + 1
-    self%log_rows(1, self%n_log) = time
-    self%log_rows(2, self%n_log) = real(bodies%gid(i), dp)
-    self%log_rows(3:5, self%n_log) = bodies%mass(i)*(bodies%v(:, i) - v_old)
-    self%log_rows(6:8, self%n_log) = bodies%world_inertia_apply(i, bodies%w(:, i)) - bodies%world_inertia_apply(i, w_old)
-  end subroutine log_impulse
-
-  !> Keeps, of self%contacts(1:n_contacts), the contact groups (connected through moving
-  !> bodies) that hold a moving body of an event pair: an impact is simultaneous with what
-  !> touches it, not with every pair that happens to be in the band elsewhere in the scene
-  !> (those reach their own events at their own times). This is also what the local event
-  !> loop solves at an impact, so the two loops find the same impulses.
-  subroutine keep_event_groups(self, bodies, n_contacts)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(inout) :: n_contacts
-    integer, allocatable :: group_start(:), group_list(:), event_bodies(:)
-    logical, allocatable :: keep(:)
-    integer :: n_groups, g, k, c, e
-    if (n_contacts == 0) return
-    allocate (event_bodies(2*self%n_events))
-    e = 0
-    do k = 1, self%n_events
-      do c = 1, 2
-        if (bodies%fixed(self%event_pairs(c, k))) cycle
-        e = e + 1
-        event_bodies(e) = self%event_pairs(c, k)
-      end do
-    end do
-    call contact_groups(bodies, self%contacts(1:n_contacts), group_start, group_list, n_groups)
-    allocate (keep(n_contacts))
-    keep = .false.
-    do g = 1, n_groups
-      associate (members => group_list(group_start(g):group_start(g + 1) - 1))
-        do k = 1, size(members)
-          if (any(event_bodies(1:e) == self%contacts(members(k))%a) .or. &
-              any(event_bodies(1:e) == self%contacts(members(k))%b)) then
-            keep(members) = .true.
-            exit
-          end if
-        end do
-      end associate
-    end do
-    if (all(keep)) return
-    k = count(keep)
-    self%contacts(1:k) = pack(self%contacts(1:n_contacts), keep)
-    n_contacts = k
-  end subroutine keep_event_groups
-
-  !> Candidate pairs from one ring of a fresh grid and every contact point within the
-  !> contact band, into self%contacts(1:n_contacts). Sleeping islands a moving body touches
-  !> wake, and the contacts are gathered again with them awake (their pairs with each other
-  !> were static-static pairs, never listed, while they slept).
-  subroutine collect_band_contacts(self, bodies, shapes, flight, n_contacts, err)
-    type(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    type(free_flight_t), intent(inout) :: flight
-    integer, intent(out) :: n_contacts
-    type(error_t), intent(inout) :: err
-    real(dp), allocatable :: lower(:, :), upper(:, :)
-    integer :: n, round
-    logical :: woke
-    n = bodies%n_owned + bodies%n_ghost
-    n_contacts = 0
-    allocate (lower(3, n), upper(3, n))
-    call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
-    ! Each round wakes at least one island: at most as many rounds as islands asleep.
-    do round = 1, n + 1
-      call self%grid%build(n, lower, upper, bodies%fixed(1:n), err)
-      if (err%failed()) return
-      call self%grid%candidate_pairs(1, [self%target + self%tolerance + self%contact_tolerance], self%pairs, &
-                                     self%n_pairs, err, n_owned=bodies%n_owned)
-      if (err%failed()) return
-      call gather_contacts(self, bodies, shapes, n_contacts)
-      call self%sleep%wake_touching(bodies, flight, self%contacts(1:n_contacts), woke)
-      if (.not. woke) exit
-    end do
-  end subroutine collect_band_contacts
-
-  !> The distinct body pairs of self%contacts(1:n_contacts): the islands sleeping looks at.
-  subroutine record_band_pairs(self, n_contacts)
-    type(collision_stage_t), intent(inout) :: self
-    integer, intent(in) :: n_contacts
-    integer :: c
-    if (.not. allocated(self%band_pairs)) allocate (self%band_pairs(2, max(n_contacts, 16)))
-    if (size(self%band_pairs, 2) < n_contacts) then
-      deallocate (self%band_pairs)
-      allocate (self%band_pairs(2, 2*n_contacts))
-    end if
-    self%n_band_pairs = 0
-    do c = 1, n_contacts
-      if (self%contacts(c)%allowed_approach > 0.0_dp) cycle   ! speculative: not touching
-      ! contact points of one pair are consecutive: keep the first of each run
-      if (self%n_band_pairs > 0) then
-        if (self%band_pairs(1, self%n_band_pairs) == self%contacts(c)%a .and. &
-            self%band_pairs(2, self%n_band_pairs) == self%contacts(c)%b) cycle
-      end if
-      self%n_band_pairs = self%n_band_pairs + 1
-      self%band_pairs(:, self%n_band_pairs) = [self%contacts(c)%a, self%contacts(c)%b]
-    end do
-  end subroutine record_band_pairs
-
-  !> After a step of h [s]: islands quiet for long enough fall asleep (sleeping).
-  subroutine stage_settle(self, bodies, shapes, flight, h)
-    class(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(shape_library_t), intent(in) :: shapes
-    type(free_flight_t), intent(inout) :: flight
-    real(dp), intent(in) :: h
-    if (.not. allocated(self%band_pairs)) allocate (self%band_pairs(2, 16))
-    call self%sleep%update(bodies, shapes, flight, h, self%band_pairs, self%n_band_pairs)
-  end subroutine stage_settle
-
-  !> Every sleeping body wakes (checkpoints: a restart continues exactly).
-  !> The step ends before this rank's earliest contact (another rank's came first): no pair
-  !> of this rank is in contact at its end.
-  subroutine stage_drop_events(self)
-    class(collision_stage_t), intent(inout) :: self
-    self%n_events = 0
-  end subroutine stage_drop_events
-
-  !> Room in the step's pair table for m pairs of n bodies (the local event loop fills the
-  !> table with an island's pairs, or one pair, itself).
-  subroutine stage_reserve_table(self, m, n)
-    class(collision_stage_t), intent(inout) :: self
-    integer, intent(in) :: m, n
-    integer :: c
-    c = max(m, 16)
-    if (allocated(self%pair_gap0)) then
-      if (size(self%pair_gap0) < m) deallocate (self%pair_gap0, self%pair_normal, self%pair_far, self%pair_in_pass)
-    end if
-    if (.not. allocated(self%pair_gap0)) allocate (self%pair_gap0(c), self%pair_normal(3, c), self%pair_far(c), &
-                                                   self%pair_in_pass(c))
-    if (allocated(self%pairs)) then
-      if (size(self%pairs, 2) < m) deallocate (self%pairs)
-    end if
-    if (.not. allocated(self%pairs)) allocate (self%pairs(2, c))
-    if (allocated(self%grid_margin)) then
-      if (size(self%grid_margin) < n) deallocate (self%grid_margin, self%turn)
-    end if
-    if (.not. allocated(self%grid_margin)) then
-      allocate (self%grid_margin(n), self%turn(n))
-      self%grid_margin = 0.0_dp
-      self%turn = 0.0_dp
-    end if
-  end subroutine stage_reserve_table
-
-  subroutine stage_wake_all(self, bodies, flight)
-    class(collision_stage_t), intent(inout) :: self
-    type(bodies_t), intent(inout) :: bodies
-    type(free_flight_t), intent(inout) :: flight
-    call self%sleep%wake_all(bodies, flight)
-  end subroutine stage_wake_all
-
-  !> The bound's inputs: velocities and accelerations at the step's start and angular
-  !> speed bound times the largest radius (zero for analytic spheres: turning moves none of
-  !> their surface).
-  function pair_motion(shapes, bodies, flight, i, j, gravity) result(motion)
-    type(shape_library_t), intent(in) :: shapes
-    type(bodies_t), intent(in) :: bodies
-    type(free_flight_t), intent(in) :: flight
-    integer, intent(in) :: i, j
-    real(dp), intent(in) :: gravity(3)
-    type(pair_motion_t) :: motion
-    motion%v_a = bodies%v(:, i)
-    motion%v_b = bodies%v(:, j)
-    motion%a_a = merge(0.0_dp, 1.0_dp, bodies%fixed(i))*flight%acceleration(i, gravity)
-    motion%a_b = merge(0.0_dp, 1.0_dp, bodies%fixed(j))*flight%acceleration(j, gravity)
-    motion%omega_r_a = turning_reach(shapes, bodies, i)
-    motion%omega_r_b = turning_reach(shapes, bodies, j)
-    motion%convex = shapes%shapes(bodies%shape_id(i))%convex .and. shapes%shapes(bodies%shape_id(j))%convex
-  end function pair_motion
-
   !> The fastest any surface point of body k moves relative to its centre of mass by turning,
   !> Omega R [m/s] (zero for analytic spheres: turning moves none of their surface).
   pure real(dp) function turning_reach(shapes, bodies, k)
@@ -1472,16 +300,5 @@ contains
                       quat_rotate_inverse(bodies%q(:, k), bodies%w(:, k)))*shapes%shapes(bodies%shape_id(k))%bounding_radius
     end if
   end function turning_reach
-
-  subroutine oracle_gap_at(self, t, gap, normal)
-    class(pair_oracle_t), intent(inout) :: self
-    real(dp), intent(in) :: t
-    real(dp), intent(out) :: gap, normal(3)
-    real(dp) :: xi(3), qi(4), xj(3), qj(4)
-    call self%flight%pose_at(self%bodies, self%i, self%time_now, t, self%gravity, self%config, xi, qi)
-    call self%flight%pose_at(self%bodies, self%j, self%time_now, t, self%gravity, self%config, xj, qj)
-    call pair_gap(self%shapes, self%bodies, self%i, self%j, xi, qi, xj, qj, gap, normal)
-    self%min_gap = min(self%min_gap, gap)
-  end subroutine oracle_gap_at
 
 end module collision_stage
