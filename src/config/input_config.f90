@@ -42,6 +42,9 @@ module input_config
     !> 'global': every event a global step (the reference); 'auto': local with exact
     !> rotation, global with newmark
     character(len=16) :: events = EVENTS_AUTO
+    !> local loop: after every event, check that every pair with a moving body holds a
+    !> current certificate reaching at least to now (O(pairs) per event: for tests)
+    logical :: audit_certificates = .false.
   end type integrator_config_t
 
   type :: contact_config_t

@@ -38,6 +38,7 @@ module pair_store
     real(dp), allocatable :: normal(:, :)       !< (3, slot) normal there, from a to b
     logical, allocatable :: far(:)              !< gap is only the bounding-volume lower bound
     real(dp), allocatable :: t_due(:)           !< time of the next action [s]
+    real(dp), allocatable :: certified_until(:) !< the certificate holds up to here [s] (the audit's check)
     integer, allocatable :: action(:)           !< ACTION_*
     logical, allocatable :: in_pass(:)          !< the contact pass of the island step solved it
   contains
@@ -62,7 +63,8 @@ contains
     call self%free()
     c = max(capacity, 16)
     allocate (self%a(c), self%b(c), self%next(2, c), self%free_slots(c), self%stamp(2, c), self%t_query(c), &
-              self%gap(c), self%normal(3, c), self%far(c), self%t_due(c), self%action(c), self%in_pass(c))
+              self%gap(c), self%normal(3, c), self%far(c), self%t_due(c), self%action(c), self%in_pass(c), &
+              self%certified_until(c))
     allocate (self%head(max(n_bodies, 1)), self%degree(max(n_bodies, 1)))
     self%a = 0
     self%b = 0
@@ -76,7 +78,8 @@ contains
   subroutine store_free(self)
     class(pair_store_t), intent(inout) :: self
     if (allocated(self%a)) deallocate (self%a, self%b, self%next, self%free_slots, self%stamp, self%t_query, &
-                                       self%gap, self%normal, self%far, self%t_due, self%action, self%in_pass)
+                                       self%gap, self%normal, self%far, self%t_due, self%action, self%in_pass, &
+                                       self%certified_until)
     if (allocated(self%head)) deallocate (self%head, self%degree)
     self%n_slots = 0
     self%n_live = 0
@@ -132,6 +135,7 @@ contains
     self%normal(:, slot) = 0.0_dp
     self%far(slot) = .true.
     self%t_due(slot) = huge(1.0_dp)
+    self%certified_until(slot) = -huge(1.0_dp)
     self%action(slot) = ACTION_NONE
     self%in_pass(slot) = .false.
     self%n_live = self%n_live + 1
@@ -265,6 +269,7 @@ contains
     call grow_real2(self%normal, c)
     call grow_logical(self%far, c)
     call grow_real(self%t_due, c)
+    call grow_real(self%certified_until, c)
     call grow_int(self%action, c)
     call grow_logical(self%in_pass, c)
   end subroutine grow_slots

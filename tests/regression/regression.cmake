@@ -108,6 +108,18 @@ if(RICOCHET_USE_HDF5)
   # two cubes of different mu, under each restitution_rule and friction_rule (4 s)
   ricochet_python_case(materials check_materials.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_materials)
+  # The certificate audit (&integrator audit_certificates): after every event every pair with
+  # a moving body must hold a current certificate that reaches the next event; a hole is an
+  # error naming the pair, so the run's exit status is the test (tests/data/audit/).
+  foreach(case pile_8_cubes_audit pile_64_cubes_audit)
+    set(workdir ${CMAKE_CURRENT_BINARY_DIR}/run/regression_${case})
+    file(MAKE_DIRECTORY ${workdir})
+    add_test(NAME regression.${case}
+             COMMAND $<TARGET_FILE:ricochet> ${RICOCHET_TEST_DATA}/audit/${case}.nml --output-dir ${workdir}/out
+             WORKING_DIRECTORY ${workdir})
+    set_tests_properties(regression.${case} PROPERTIES LABELS "regression;stress" ENVIRONMENT "${RICOCHET_TEST_ENV}"
+                         TIMEOUT 300)
+  endforeach()
   # Stress cases (label stress, each < 2 s here): mass ratio 1e6, a cube spinning at
   # 1e4 rad/s landing, bodies from 1e-6 m to 1e4 m (check_stress.py)
   foreach(case mass_ratio spinning)

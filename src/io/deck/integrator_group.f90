@@ -7,20 +7,21 @@ module integrator_group
   use string_utils, only: str, lower
   use input_config, only: integrator_config_t, ROTATION_NEWMARK, ROTATION_EXACT, EVENTS_AUTO, EVENTS_LOCAL, &
                           EVENTS_GLOBAL
-  use namelist_source, only: V_REAL, V_INTEGER, V_CHARACTER, var_spec_t, source_t, group_t, group_input_t, &
+  use namelist_source, only: V_REAL, V_INTEGER, V_LOGICAL, V_CHARACTER, var_spec_t, source_t, group_t, group_input_t, &
                              open_group, prepare_group, translate_read_error, require_finite, fail, real_text, &
-                             put_real, put_integer, put_text
+                             put_real, put_integer, put_text, put_logical
   implicit none
   private
   public :: read_integrator_group, write_integrator_group
 
   type(integrator_config_t), parameter :: integrator_default = integrator_config_t()
 
-  type(var_spec_t), parameter :: integrator_vars(6) = [ &
+  type(var_spec_t), parameter :: integrator_vars(7) = [ &
     var_spec_t('newmark_beta', V_REAL, 1, 0), var_spec_t('newmark_gamma', V_REAL, 1, 0), &
     var_spec_t('rotation_tolerance', V_REAL, 1, 0), var_spec_t('rotation_max_iterations', V_INTEGER, 1, 0), &
     var_spec_t('rotation', V_CHARACTER, 1, len(integrator_default%rotation)), &
-    var_spec_t('events', V_CHARACTER, 1, len(integrator_default%events))]
+    var_spec_t('events', V_CHARACTER, 1, len(integrator_default%events)), &
+    var_spec_t('audit_certificates', V_LOGICAL, 1, 0)]
 
 contains
 
@@ -34,9 +35,11 @@ contains
     integer :: rotation_max_iterations
     character(len=len(config%rotation)) :: rotation
     character(len=len(config%events)) :: events
+    logical :: audit_certificates
     integer :: ios
     character(len=512) :: msg
-    namelist /integrator/ newmark_beta, newmark_gamma, rotation_tolerance, rotation_max_iterations, rotation, events
+    namelist /integrator/ newmark_beta, newmark_gamma, rotation_tolerance, rotation_max_iterations, rotation, events, &
+                          audit_certificates
 
     call open_group(src, group, integrator_vars, '&integrator', g)
     call prepare_group(g, err)
@@ -47,6 +50,7 @@ contains
     rotation_max_iterations = config%rotation_max_iterations
     rotation = config%rotation
     events = config%events
+    audit_certificates = config%audit_certificates
     msg = ''
     read (g%text, nml=integrator, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -59,6 +63,7 @@ contains
     config%rotation_max_iterations = rotation_max_iterations
     config%rotation = lower(adjustl(rotation))
     config%events = lower(adjustl(events))
+    config%audit_certificates = audit_certificates
 
     call require_finite(g, err, 'newmark_beta', [newmark_beta])
     call require_finite(g, err, 'newmark_gamma', [newmark_gamma])
@@ -101,6 +106,7 @@ contains
     call put_integer(unit, 'rotation_max_iterations', [config%rotation_max_iterations], '')
     call put_text(unit, 'rotation', config%rotation)
     call put_text(unit, 'events', config%events)
+    call put_logical(unit, 'audit_certificates', config%audit_certificates)
     write (unit, '(a)') '/'
   end subroutine write_integrator_group
 
