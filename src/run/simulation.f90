@@ -587,7 +587,12 @@ contains
                 abs(now%potential - self%initial%potential), tiny(1.0_dp))
     self%max_energy_error = max(self%max_energy_error, abs(now%energy() - self%initial%energy())/scale)
     expected_p = self%initial%momentum + self%initial%mass*self%deck%run%gravity*self%time
-    scale = max(norm2(self%initial%momentum), norm2(expected_p), tiny(1.0_dp))
+    ! Relative to |P0| or |P0 + M g t|, or, when those are small (a gas at rest as a whole:
+    ! 1e15 "relative" error from round-off over nothing), to the momentum the kinetic energy
+    ! could carry, sqrt(2 T M) (never below |P|, by Cauchy-Schwarz).
+    scale = max(norm2(self%initial%momentum), norm2(expected_p), &
+                sqrt(2.0_dp*max(self%initial%kinetic_translational, now%kinetic_translational)*now%mass), &
+                tiny(1.0_dp))
     self%max_momentum_error = max(self%max_momentum_error, norm2(now%momentum - expected_p)/scale)
     ! Relative to |L0|, or, when the system started with little or none, to the angular
     ! momentum its kinetic energy could carry (sqrt(2 T I)), so spin out of nothing counts.
@@ -731,7 +736,7 @@ contains
       '  (with contacts, energy is an invariant only for e = 1, momentum and angular momentum only '// &
       'without fixed bodies)'
     write (*, '(a,es10.3,a)') '  energy error (max)   ', self%max_energy_error, '  (relative to kinetic + |potential|)'
-    write (*, '(a,es10.3,a)') '  momentum error (max) ', self%max_momentum_error, '  (P - P0 - M g t, relative)'
+    write (*, '(a,es10.3,a)') '  momentum error (max) ', self%max_momentum_error, '  (P - P0 - M g t, relative to max(|P0 + M g t|, sqrt(2 T M)))'
     write (*, '(a,es10.3,a)') '  ang. momentum error  ', self%max_angular_momentum_error, &
       '  (about the centre of mass, relative to max(|L0|, sqrt(2 T I)))'
     write (*, '(a,i0,a,i0,a,i0)') '  rotation iterations  ', self%flight%iterations_total, ' (max per update ', &
