@@ -736,7 +736,8 @@ contains
       '  (with contacts, energy is an invariant only for e = 1, momentum and angular momentum only '// &
       'without fixed bodies)'
     write (*, '(a,es10.3,a)') '  energy error (max)   ', self%max_energy_error, '  (relative to kinetic + |potential|)'
-    write (*, '(a,es10.3,a)') '  momentum error (max) ', self%max_momentum_error, '  (P - P0 - M g t, relative to max(|P0 + M g t|, sqrt(2 T M)))'
+    write (*, '(a,es10.3,a)') '  momentum error (max) ', self%max_momentum_error, &
+      '  (P - P0 - M g t, relative to max(|P0 + M g t|, sqrt(2 T M)))'
     write (*, '(a,es10.3,a)') '  ang. momentum error  ', self%max_angular_momentum_error, &
       '  (about the centre of mass, relative to max(|L0|, sqrt(2 T I)))'
     write (*, '(a,i0,a,i0,a,i0)') '  rotation iterations  ', self%flight%iterations_total, ' (max per update ', &
