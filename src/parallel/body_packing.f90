@@ -24,7 +24,10 @@ module body_packing
   implicit none
   private
   public :: PACK_LAYOUT_VERSION, PACK_HEADER_WORDS, BODY_WORDS
-  public :: packed_words, pack_bodies, unpack_bodies, packed_count
+  public :: packed_words, pack_bodies, unpack_bodies, packed_count, pack_for_neighbour, PACKED_WORD_BYTES
+
+  !> Bytes of one buffer word (the buffers are real(dp)).
+  integer, parameter :: PACKED_WORD_BYTES = storage_size(1.0_dp)/8
 
   integer, parameter :: PACK_LAYOUT_VERSION = 1
   integer, parameter :: PACK_HEADER_WORDS = 4
@@ -168,5 +171,30 @@ contains
     integer(i8) :: values(size(words))
     values = transfer(words, values)
   end function as_ints
+
+  !> The buffer for one neighbour of a staged exchange (halo or migration): the rows packed
+  !> with their extras (a header alone when there are none, so every message can be
+  !> checked), or nothing without a neighbour (neighbour < 0: MPI_PROC_NULL sends nothing).
+  !> messages, n_sent, bytes: the sender's counts, added to.
+  subroutine pack_for_neighbour(bodies, rows, extra, n_extra, neighbour, buffer, messages, n_sent, bytes)
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: rows(:)
+    integer(i8), intent(in) :: extra(:, :)
+    integer, intent(in) :: n_extra, neighbour
+    real(dp), allocatable, intent(out) :: buffer(:)
+    integer(i8), intent(inout) :: messages, n_sent, bytes
+    if (neighbour < 0) then
+      allocate (buffer(0))
+      return
+    end if
+    if (n_extra > 0) then
+      call pack_bodies(bodies, rows, buffer, extra)
+    else
+      call pack_bodies(bodies, rows, buffer)
+    end if
+    messages = messages + 1
+    n_sent = n_sent + size(rows)
+    bytes = bytes + int(size(buffer), i8)*PACKED_WORD_BYTES
+  end subroutine pack_for_neighbour
 
 end module body_packing

@@ -21,7 +21,7 @@ module halo_exchange
   use parallel_env, only: parallel_t
   use domain, only: domain_t, box_range_t, MAX_HALO_RINGS
   use body_state, only: bodies_t
-  use body_packing, only: pack_bodies, unpack_bodies, PACK_HEADER_WORDS
+  use body_packing, only: unpack_bodies, pack_for_neighbour, PACK_HEADER_WORDS, PACKED_WORD_BYTES
   use sorting, only: sort_index_keys
   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
   implicit none
@@ -39,7 +39,6 @@ module halo_exchange
     integer(i8) :: bytes_received = 0
   end type halo_stats_t
 
-  integer, parameter :: WORD_BYTES = storage_size(1.0_dp)/8
 
 contains
 
@@ -129,9 +128,11 @@ contains
             rows = rows_in(dom, bodies, boxes)
           end if
           if (side == 1) then
-            call pack_or_empty(bodies, rows, extra, n_extra, neighbour(side), to_minus, counts)
+            call pack_for_neighbour(bodies, rows, extra, n_extra, neighbour(side), to_minus, counts%messages_sent, &
+                                    counts%bodies_sent, counts%bytes_sent)
           else
-            call pack_or_empty(bodies, rows, extra, n_extra, neighbour(side), to_plus, counts)
+            call pack_for_neighbour(bodies, rows, extra, n_extra, neighbour(side), to_plus, counts%messages_sent, &
+                                    counts%bodies_sent, counts%bytes_sent)
           end if
         end do
         call par%exchange_faces(axis, neighbour(1), neighbour(2), to_minus, to_plus, recv_minus, recv_plus, &
@@ -181,29 +182,6 @@ contains
     rows = pack([(k, k=1, bodies%n_total())], inside)
   end function rows_in
 
-  !> The buffer for one face neighbour: the rows packed, or nothing without a neighbour
-  !> (MPI_PROC_NULL sends nothing anyway; no buffer to build).
-  subroutine pack_or_empty(bodies, rows, extra, n_extra, neighbour, buffer, counts)
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(in) :: rows(:)
-    integer(i8), intent(in) :: extra(:, :)
-    integer, intent(in) :: n_extra, neighbour
-    real(dp), allocatable, intent(out) :: buffer(:)
-    type(halo_stats_t), intent(inout) :: counts
-    if (neighbour < 0) then
-      allocate (buffer(0))
-      return
-    end if
-    if (n_extra > 0) then
-      call pack_bodies(bodies, rows, buffer, extra)
-    else
-      call pack_bodies(bodies, rows, buffer)
-    end if
-    counts%messages_sent = counts%messages_sent + 1
-    counts%bodies_sent = counts%bodies_sent + size(rows)
-    counts%bytes_sent = counts%bytes_sent + int(size(buffer), i8)*WORD_BYTES
-  end subroutine pack_or_empty
-
   !> The bodies of a received buffer appended as ghosts, their extras after the others'.
   !> An empty buffer (no neighbour, or one that failed) adds nothing.
   subroutine take_ghosts(buffer, neighbour, bodies, extra, n_extra, counts, err)
@@ -217,7 +195,7 @@ contains
     integer(i8), allocatable :: got(:, :), grown(:, :)
     integer :: first, n_before
     if (size(buffer) == 0 .or. err%failed()) return
-    counts%bytes_received = counts%bytes_received + int(size(buffer), i8)*WORD_BYTES
+    counts%bytes_received = counts%bytes_received + int(size(buffer), i8)*PACKED_WORD_BYTES
     ! the extras' count is the header's 4th word: both sides must agree on versions or
     ! ghost_versions would be shifted (unpack_bodies checks the rest of the header)
     if (size(buffer) >= PACK_HEADER_WORDS) then

@@ -25,7 +25,7 @@ module migration
   use parallel_env, only: parallel_t
   use domain, only: domain_t, NO_RANK
   use body_state, only: bodies_t
-  use body_packing, only: pack_bodies, unpack_bodies, PACK_HEADER_WORDS
+  use body_packing, only: unpack_bodies, pack_for_neighbour, PACK_HEADER_WORDS, PACKED_WORD_BYTES
   implicit none
   private
   public :: migrate_bodies, migration_stats_t
@@ -44,7 +44,6 @@ module migration
     integer(i8) :: bodies_arrived = 0     !< owned bodies at the end that came from elsewhere
   end type migration_stats_t
 
-  integer, parameter :: WORD_BYTES = storage_size(1.0_dp)/8
   !> Why a body stays where it is against its owner (route).
   integer, parameter :: ROUTE_OK = 0, ROUTE_NAN = 1, ROUTE_FAR = 2, ROUTE_ASTRAY = 3
 
@@ -164,8 +163,10 @@ contains
         if (neighbour(1) == NO_RANK) rows_minus = [integer ::]
         if (neighbour(2) == NO_RANK) rows_plus = [integer ::]
       end if
-      call pack_for(bodies, rows_minus, extra, n_extra, neighbour(1), to_minus, counts)
-      call pack_for(bodies, rows_plus, extra, n_extra, neighbour(2), to_plus, counts)
+      call pack_for_neighbour(bodies, rows_minus, extra, n_extra, neighbour(1), to_minus, counts%messages_sent, &
+                              counts%bodies_sent, counts%bytes_sent)
+      call pack_for_neighbour(bodies, rows_plus, extra, n_extra, neighbour(2), to_plus, counts%messages_sent, &
+                              counts%bodies_sent, counts%bytes_sent)
       call par%exchange_faces(axis, neighbour(1), neighbour(2), to_minus, to_plus, recv_minus, recv_plus, &
                               pass_err)
       if (pass_err%failed()) then
@@ -292,29 +293,6 @@ contains
     end select
   end subroutine report
 
-  !> The buffer for one face neighbour: the rows packed (a header alone when none leave,
-  !> so every message can be checked), or nothing without a neighbour (MPI_PROC_NULL).
-  subroutine pack_for(bodies, rows, extra, n_extra, neighbour, buffer, counts)
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(in) :: rows(:)
-    integer(i8), intent(in) :: extra(:, :)
-    integer, intent(in) :: n_extra, neighbour
-    real(dp), allocatable, intent(out) :: buffer(:)
-    type(migration_stats_t), intent(inout) :: counts
-    if (neighbour == NO_RANK) then
-      allocate (buffer(0))
-      return
-    end if
-    if (n_extra > 0) then
-      call pack_bodies(bodies, rows, buffer, extra)
-    else
-      call pack_bodies(bodies, rows, buffer)
-    end if
-    counts%messages_sent = counts%messages_sent + 1
-    counts%bodies_sent = counts%bodies_sent + size(rows)
-    counts%bytes_sent = counts%bytes_sent + int(size(buffer), i8)*WORD_BYTES
-  end subroutine pack_for
-
   !> The bodies of a buffer received in the pass of `axis` appended as owned rows, with
   !> their extras, origin 0 (they arrived) and their destinations (route). Unlike ghosts
   !> they are taken even after an error on this rank: the sender has dropped them, so
@@ -338,7 +316,7 @@ contains
     integer :: first, n_before, n_after, k, why, owner
     integer(i8) :: n_sent_extra
     if (size(buffer) == 0) return
-    counts%bytes_received = counts%bytes_received + int(size(buffer), i8)*WORD_BYTES
+    counts%bytes_received = counts%bytes_received + int(size(buffer), i8)*PACKED_WORD_BYTES
     n_sent_extra = n_extra
     if (size(buffer) >= PACK_HEADER_WORDS) n_sent_extra = transfer(buffer(4), 1_i8)
     if (n_sent_extra /= n_extra .and. err%ok()) then
