@@ -28,7 +28,7 @@ module nnls
   use string_utils, only: str
   implicit none
   private
-  public :: solve_nnls, nnls_state_t
+  public :: solve_nnls
 
   !> A column is dependent on the passive ones when its orthogonal part is below this
   !> fraction of its norm (dgelsy's rcond was 1e-12 on the whole block; a single column's
@@ -51,17 +51,6 @@ module nnls
     real(dp), allocatable :: val(:)
   end type sparse_columns_t
 
-  !> The factorisation a solve ended with, for the next solve with the same E and another f
-  !> (the rounds of a staggered solve): that one starts from this passive set and its QR,
-  !> recomputing only Q^T f, instead of building the factorisation column by column again.
-  !> Used only if E is the same to the bit (its nonzeros are compared).
-  type :: nnls_state_t
-    logical :: ready = .false.
-    type(passive_qr_t) :: qr
-    type(sparse_columns_t) :: cols
-    logical, allocatable :: passive(:)
-  end type nnls_state_t
-
 contains
 
   !> x >= 0 minimising |E x - f|; iterations counts outer steps. At the iteration cap
@@ -70,21 +59,17 @@ contains
   !> and converged = .false. when the argument is present, else err is set.
   !> spread (default true): move x to the minimum-norm point over the dependent columns at
   !> the end (spread_over_dependent); a caller that needs only E x may skip it.
-  !> state, when present: the previous solve's factorisation, reused if E is the same, and
-  !> this solve's, kept for the next (the optimum is the same from any feasible start: E x is
-  !> unique, and with full-rank E so is x; the last bits may differ from a cold start).
-  subroutine solve_nnls(e, f, x, iterations, err, converged, spread, state)
+  subroutine solve_nnls(e, f, x, iterations, err, converged, spread)
     real(dp), intent(in) :: e(:, :), f(:)
     real(dp), intent(out) :: x(:)
     integer, intent(out) :: iterations
     type(error_t), intent(inout) :: err
     logical, intent(out), optional :: converged
     logical, intent(in), optional :: spread
-    type(nnls_state_t), intent(inout), optional :: state
     type(passive_qr_t) :: qr
     type(sparse_columns_t) :: cols
     integer :: m, n, j, p, t, max_iterations, inner, kmax, blocking
-    logical :: passive(size(e, 2)), blocked(size(e, 2)), added, reuse
+    logical :: passive(size(e, 2)), blocked(size(e, 2)), added
     real(dp) :: w(size(e, 2)), z(size(e, 2)), residual(size(e, 1)), tolerance, alpha, ratio
 
     m = size(e, 1)
@@ -97,33 +82,12 @@ contains
     if (n == 0) return
     max_iterations = 3*n + 10
     kmax = min(m, n)
+    allocate (qr%q(m, kmax), qr%r(kmax, kmax), qr%qtf(kmax), qr%column(kmax))
     call compress_columns(e, cols)
-    reuse = .false.
-    if (present(state)) then
-      if (state%ready) reuse = same_columns(state%cols, cols) .and. size(state%passive) == n
-      if (reuse) reuse = size(state%qr%q, 1) == m .and. size(state%qr%q, 2) == kmax
-    end if
-    if (reuse) then
-      ! the last passive set and its factorisation, with Q^T f for this f
-      call move_alloc(state%qr%q, qr%q)
-      call move_alloc(state%qr%r, qr%r)
-      call move_alloc(state%qr%qtf, qr%qtf)
-      call move_alloc(state%qr%column, qr%column)
-      qr%k = state%qr%k
-      passive = state%passive
-      do p = 1, qr%k
-        qr%qtf(p) = dot_product(qr%q(:, p), f)
-      end do
-      call drop_to_feasible(qr, x, passive)
-    else
-      allocate (qr%q(m, kmax), qr%r(kmax, kmax), qr%qtf(kmax), qr%column(kmax))
-    end if
-    if (present(state)) state%ready = .false.
     ! Dual-feasibility tolerance relative to the problem's scale: round-off in E^T r is about
     ! eps |E| |f|; 100 eps keeps the loop from chasing noise.
     tolerance = 100.0_dp*epsilon(1.0_dp)*max(norm2(e), tiny(1.0_dp))*max(norm2(f), tiny(1.0_dp))
     residual = f
-    if (reuse) call residual_of(cols, f, x, residual)
     call gradient(cols, residual, w)
     outer: do
       ! The most violated column that can enter (independent of the passive ones).
@@ -194,61 +158,10 @@ contains
       call gradient(cols, residual, w)
     end do outer
     if (present(spread)) then
-      if (spread) call spread_over_dependent(qr, e, x, w, tolerance, passive)
-    else
-      call spread_over_dependent(qr, e, x, w, tolerance, passive)
+      if (.not. spread) return
     end if
-    if (present(state)) then
-      ! kept for the next solve with this E (an unconverged one, above, keeps nothing)
-      call move_alloc(qr%q, state%qr%q)
-      call move_alloc(qr%r, state%qr%r)
-      call move_alloc(qr%qtf, state%qr%qtf)
-      call move_alloc(qr%column, state%qr%column)
-      state%qr%k = qr%k
-      call move_alloc(cols%start, state%cols%start)
-      call move_alloc(cols%row, state%cols%row)
-      call move_alloc(cols%val, state%cols%val)
-      state%passive = passive
-      state%ready = .true.
-    end if
+    call spread_over_dependent(qr, e, x, w, tolerance, passive)
   end subroutine solve_nnls
-
-  !> Columns whose least-squares values on the passive set are not positive leave it, until
-  !> none is: x >= 0 then, positive exactly on the passive set and optimal over it, where a
-  !> Lawson-Hanson step may begin.
-  subroutine drop_to_feasible(qr, x, passive)
-    type(passive_qr_t), intent(inout) :: qr
-    real(dp), intent(out) :: x(:)
-    logical, intent(inout) :: passive(:)
-    real(dp) :: z(size(x))
-    integer :: p
-    do while (qr%k > 0)
-      call back_substitute(qr, z)
-      if (all(z(1:qr%k) > 0.0_dp)) exit
-      do p = qr%k, 1, -1
-        if (z(p) <= 0.0_dp) then
-          passive(qr%column(p)) = .false.
-          call remove_column(qr, p)
-        end if
-      end do
-    end do
-    x = 0.0_dp
-    if (qr%k > 0) then
-      call back_substitute(qr, z)
-      do p = 1, qr%k
-        x(qr%column(p)) = z(p)
-      end do
-    end if
-  end subroutine drop_to_feasible
-
-  !> The same nonzeros, bit for bit.
-  pure logical function same_columns(a, b)
-    type(sparse_columns_t), intent(in) :: a, b
-    same_columns = .false.
-    if (.not. (allocated(a%start) .and. allocated(b%start))) return
-    if (size(a%start) /= size(b%start) .or. size(a%row) /= size(b%row)) return
-    same_columns = all(a%start == b%start) .and. all(a%row == b%row) .and. all(a%val == b%val)
-  end function same_columns
 
   !> E x is unique, x is not when columns outside P have zero gradient and lie in the span
   !> of P and each other (the four corners of a box face: the answer above loads two
