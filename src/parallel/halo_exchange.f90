@@ -26,7 +26,7 @@ module halo_exchange
   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
   implicit none
   private
-  public :: exchange_halo, halo_stats_t
+  public :: exchange_halo, halo_stats_t, check_rank_grid
 
   !> What the exchanges of a run cost this rank, summed over the calls that were given it
   !> (the load/cost report: reset it with halo_stats_t() to count one exchange).
@@ -75,15 +75,8 @@ contains
       call err%set(ERR_INTERNAL, 'halo exchange: rings must be 1..'//str(MAX_HALO_RINGS)//', not '//str(rings))
       return
     end if
-    if (.not. par%has_cart) then
-      call err%set(ERR_INTERNAL, 'halo exchange: no Cartesian communicator (parallel_env cart_create)')
-      return
-    end if
-    if (any(par%cart_dims /= dom%dims)) then
-      call err%set(ERR_INTERNAL, 'halo exchange: the domain''s rank grid '//dims_text(dom%dims)// &
-                   ' is not the communicator''s '//dims_text(par%cart_dims))
-      return
-    end if
+    call check_rank_grid(par, dom, 'halo exchange', err)
+    if (err%failed()) return
     ! from here on every rank takes part in all three passes, failed or not
     if (par%cart_rank /= dom%rank) call err%set(ERR_INTERNAL, 'halo exchange: the domain is rank '// &
                                                 str(dom%rank)//'''s, this is rank '//str(par%cart_rank))
@@ -248,6 +241,22 @@ contains
     call bodies%append_rows(sorted, [(k, k=1, ng)], .true.)
     if (size(extra, 1) > 0) extra(:, n0 + 1:n0 + ng) = extra(:, n0 + order)
   end subroutine sort_ghosts
+
+  !> The staged exchanges' precondition, the same on every rank (so a failure returns
+  !> before any message): par holds a Cartesian communicator with domain's rank grid.
+  !> what names the exchange in the message.
+  subroutine check_rank_grid(par, dom, what, err)
+    type(parallel_t), intent(in) :: par
+    type(domain_t), intent(in) :: dom
+    character(len=*), intent(in) :: what
+    type(error_t), intent(inout) :: err
+    if (.not. par%has_cart) then
+      call err%set(ERR_INTERNAL, what//': no Cartesian communicator (parallel_env cart_create)')
+    else if (any(par%cart_dims /= dom%dims)) then
+      call err%set(ERR_INTERNAL, what//': the domain''s rank grid '//dims_text(dom%dims)// &
+                   ' is not the communicator''s '//dims_text(par%cart_dims))
+    end if
+  end subroutine check_rank_grid
 
   pure function dims_text(dims) result(text)
     integer, intent(in) :: dims(3)

@@ -26,6 +26,7 @@ module migration
   use domain, only: domain_t, NO_RANK
   use body_state, only: bodies_t
   use body_packing, only: unpack_bodies, pack_for_neighbour, PACK_HEADER_WORDS, PACKED_WORD_BYTES
+  use halo_exchange, only: check_rank_grid
   implicit none
   private
   public :: migrate_bodies, migration_stats_t
@@ -94,15 +95,8 @@ contains
       allocate (new_index(n_before))
       new_index = 0
     end if
-    if (.not. par%has_cart) then
-      call err%set(ERR_INTERNAL, 'migration: no Cartesian communicator (parallel_env cart_create)')
-      return
-    end if
-    if (any(par%cart_dims /= dom%dims)) then
-      call err%set(ERR_INTERNAL, 'migration: the domain''s rank grid '//dims_text(dom%dims)// &
-                   ' is not the communicator''s '//dims_text(par%cart_dims))
-      return
-    end if
+    call check_rank_grid(par, dom, 'migration', err)
+    if (err%failed()) return
     ! from here on every rank takes part in all three passes, failed or not
     sending = .true.
     if (par%cart_rank /= dom%rank) then
@@ -351,11 +345,5 @@ contains
     call move_alloc(grown_dest, dest)
     origin = [origin(1:n_before), (0, k=first, n_after)]
   end subroutine take_bodies
-
-  pure function dims_text(dims) result(text)
-    integer, intent(in) :: dims(3)
-    character(len=:), allocatable :: text
-    text = str(dims(1))//' x '//str(dims(2))//' x '//str(dims(3))
-  end function dims_text
 
 end module migration
