@@ -9,7 +9,7 @@
 !> Anchors are re-taken at every checkpoint, so a run restarted from a checkpoint repeats the
 !> same arithmetic as the run that wrote it (bitwise restarts).
 module free_flight
-  use kinds, only: dp
+  use kinds, only: dp, i8
   use input_config, only: integrator_config_t, ROTATION_EXACT
   use body_state, only: bodies_t
   use newmark_integrator, only: advance_free_flight, free_flight_stats_t, newmark_translate, newmark_rotate
@@ -41,6 +41,9 @@ module free_flight
     procedure :: anchor_at => flight_anchor_at
     procedure :: evaluate => flight_evaluate
     procedure :: is_anchored => flight_is_anchored
+    procedure :: anchor_words => flight_anchor_words
+    procedure :: pack_anchors => flight_pack_anchors
+    procedure :: unpack_anchors => flight_unpack_anchors
   end type free_flight_t
 
 contains
@@ -195,6 +198,66 @@ contains
     bodies%a(:, i) = a
     call self%rotors(i)%evaluate(tau, bodies%q(:, i), bodies%w(:, i))
   end subroutine flight_evaluate
+
+  !> Words (integer(i8)) of one body's flight record: what its trajectory is made of (load,
+  !> and in exact mode the anchor: t0, x0, v0 and the whole rotor), so that a body
+  !> migrating to another rank goes on bitwise as it would have here. The rotor travels as
+  !> its bits, not as (q0, w0) to be set up again: rotor_init normalises q0, which is not
+  !> idempotent to the last bit.
+  pure integer function flight_anchor_words(self) result(n_words)
+    class(free_flight_t), intent(in) :: self
+    type(free_rotor_t) :: probe
+    integer(i8), allocatable :: mold(:)
+    n_words = 5      ! loaded, accel(3), anchored
+    if (self%exact) then
+      allocate (mold(0))
+      n_words = n_words + 7 + size(transfer(probe, mold))
+    end if
+  end function flight_anchor_words
+
+  !> words(:, k): the flight record of body k = 1..n (anchor_words rows), bit for bit.
+  subroutine flight_pack_anchors(self, n, words)
+    class(free_flight_t), intent(in) :: self
+    integer, intent(in) :: n
+    integer(i8), allocatable, intent(out) :: words(:, :)
+    integer(i8), allocatable :: mold(:)
+    integer :: k, w
+    allocate (words(self%anchor_words(), n), mold(0))
+    do k = 1, n
+      words(1, k) = merge(1_i8, 0_i8, self%loaded(k))
+      words(2:4, k) = transfer(self%accel(:, k), mold)
+      words(5, k) = 0
+      if (.not. self%exact) cycle
+      words(5, k) = merge(1_i8, 0_i8, self%anchored(k))
+      words(6, k) = transfer(self%t0(k), 1_i8)
+      words(7:9, k) = transfer(self%x0(:, k), mold)
+      words(10:12, k) = transfer(self%v0(:, k), mold)
+      w = size(words, 1)
+      words(13:w, k) = transfer(self%rotors(k), mold)
+    end do
+  end subroutine flight_pack_anchors
+
+  !> The flight of bodies 1..size(words, 2) from records pack_anchors made (the flight is
+  !> set up again for that many bodies: migration changes which bodies a rank holds).
+  subroutine flight_unpack_anchors(self, words, config)
+    class(free_flight_t), intent(inout) :: self
+    integer(i8), intent(in) :: words(:, :)
+    type(integrator_config_t), intent(in) :: config
+    type(free_rotor_t) :: probe
+    integer :: k, w
+    call self%init(size(words, 2), config)
+    w = size(words, 1)
+    do k = 1, size(words, 2)
+      self%loaded(k) = words(1, k) /= 0
+      self%accel(:, k) = transfer(words(2:4, k), self%accel(:, k))
+      if (.not. self%exact) cycle
+      self%anchored(k) = words(5, k) /= 0
+      self%t0(k) = transfer(words(6, k), self%t0(k))
+      self%x0(:, k) = transfer(words(7:9, k), self%x0(:, k))
+      self%v0(:, k) = transfer(words(10:12, k), self%v0(:, k))
+      self%rotors(k) = transfer(words(13:w, k), probe)
+    end do
+  end subroutine flight_unpack_anchors
 
   subroutine anchor(self, bodies, i, time_now)
     type(free_flight_t), intent(inout) :: self

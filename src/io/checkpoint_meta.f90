@@ -10,6 +10,7 @@ module checkpoint_meta
   use body_state, only: bodies_t
   use parallel_env, only: parallel_t
   use digest, only: digest_t, digest_sum, digest_parts, digest_from_parts
+  use exact_sum, only: exact_sum_t
   implicit none
   private
   public :: checkpoint_meta_t, checkpoint_magic, checkpoint_version, checkpoint_title_length, &
@@ -66,21 +67,23 @@ contains
   !> Fingerprint of the bodies of a deck, the same on every rank:
   !>   sum over free bodies of gid*mass [kg]  +  pi * sum over fixed bodies of gid.
   !> Fixed bodies count by id only (their mass is "infinite"); every term is positive, so the
-  !> sum has no cancellation and is reproducible to checksum_rtol in any order. Collective.
+  !> sum has no cancellation. Summed exactly (exact_sum), so the value is bitwise the same
+  !> for any split of the bodies over ranks and any order: the checkpoint files of runs on
+  !> different rank counts are the same. Collective.
   real(dp) function bodies_checksum(par, bodies) result(checksum)
     type(parallel_t), intent(in) :: par
     type(bodies_t), intent(in) :: bodies
     integer :: i
-    real(dp) :: local
-    local = 0.0_dp
+    type(exact_sum_t) :: total
     do i = 1, bodies%n_owned
       if (bodies%fixed(i)) then
-        local = local + pi*real(bodies%gid(i), dp)
+        call total%add(pi*real(bodies%gid(i), dp))
       else
-        local = local + bodies%mass(i)*real(bodies%gid(i), dp)
+        call total%add(bodies%mass(i)*real(bodies%gid(i), dp))
       end if
     end do
-    checksum = par%sum(local)
+    call par%sum_inplace(total)
+    checksum = total%value()
   end function bodies_checksum
 
   !> Digest of one body row: every dataset a checkpoint stores for it, bit for bit.

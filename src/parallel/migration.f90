@@ -70,12 +70,15 @@ contains
   !> holding it and every other body still migrates, so each is still held exactly once.
   !> A failure that makes this rank's routing meaningless (a domain of another rank, short
   !> versions) sends nothing more but still takes what arrives.
-  subroutine migrate_bodies(par, dom, bodies, err, versions, new_index, stats)
+  !> payload(:, k): more of the caller's words of owned body k (its flight record: the
+  !> anchor), travelling with it bit for bit and returned in the new row order, as versions.
+  subroutine migrate_bodies(par, dom, bodies, err, versions, new_index, stats, payload)
     type(parallel_t), intent(in) :: par
     type(domain_t), intent(in) :: dom
     type(bodies_t), intent(inout) :: bodies
     type(error_t), intent(inout) :: err
     integer(i8), allocatable, intent(inout), optional :: versions(:)
+    integer(i8), allocatable, intent(inout), optional :: payload(:, :)
     integer, allocatable, intent(out), optional :: new_index(:)
     type(migration_stats_t), intent(inout), optional :: stats
     ! per held row, kept in step with the rows: the extras packed with it (the version),
@@ -88,7 +91,7 @@ contains
     type(migration_stats_t) :: counts
     type(error_t) :: pass_err
     logical :: sending
-    integer :: n_before, n, n_extra, n_bad, axis, neighbour(2), k, why, owner
+    integer :: n_before, n, n_extra, n_bad, axis, neighbour(2), k, why, owner, n_version, n_payload
 
     n_before = bodies%n_total()
     if (present(new_index)) then
@@ -111,10 +114,23 @@ contains
     bodies%n_ghost = 0
     n = bodies%n_owned
 
-    n_extra = 0
-    if (present(versions)) n_extra = 1
+    n_version = 0
+    if (present(versions)) n_version = 1
+    n_payload = 0
+    if (present(payload)) then
+      if (allocated(payload)) n_payload = size(payload, 1)
+      if (allocated(payload)) then
+        if (size(payload, 2) < n) then
+          if (err%ok()) call err%set(ERR_INTERNAL, 'migration: payload for '//str(size(payload, 2))// &
+                                     ' of '//str(n)//' owned bodies')
+          sending = .false.
+        end if
+      end if
+    end if
+    n_extra = n_version + n_payload
     allocate (extra(n_extra, n))
     extra = 0
+    if (n_payload > 0 .and. sending) extra(n_version + 1:n_extra, :) = payload(:, 1:n)
     if (present(versions)) then
       k = 0
       if (allocated(versions)) k = size(versions)
@@ -209,6 +225,11 @@ contains
       if (allocated(versions)) deallocate (versions)
       allocate (versions(n))
       versions = extra(1, 1:n)
+    end if
+    if (present(payload)) then
+      if (allocated(payload)) deallocate (payload)
+      allocate (payload(n_payload, n))
+      payload = extra(n_version + 1:n_extra, 1:n)
     end if
     if (present(new_index)) then
       do k = 1, n

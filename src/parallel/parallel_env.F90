@@ -13,7 +13,8 @@ module parallel_env
                      MPI_Bcast, MPI_Barrier, MPI_Abort, MPI_Wtime, MPI_SUM, MPI_MAX, MPI_MIN, &
                      MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_INTEGER8, MPI_LOGICAL, MPI_LOR, &
                      MPI_CHARACTER, MPI_IN_PLACE, MPI_Cart_create, MPI_Cart_shift, MPI_Comm_free, &
-                     MPI_Sendrecv, MPI_Status, MPI_PROC_NULL, MPI_SUCCESS, operator(/=)
+                     MPI_Sendrecv, MPI_Status, MPI_PROC_NULL, MPI_SUCCESS, MPI_Alltoall, MPI_Alltoallv, &
+                     operator(/=)
 #endif
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INTERNAL, ERR_PARALLEL
@@ -46,6 +47,7 @@ module parallel_env
     procedure :: cart_create => parallel_cart_create
     procedure :: cart_free => parallel_cart_free
     procedure :: exchange_faces => parallel_exchange_faces
+    procedure :: alltoallv => parallel_alltoallv
     generic :: sum => sum_dp, sum_int, sum_int8
     generic :: sum_inplace => sum_dp_array, sum_exact_array, sum_exact_one
     generic :: max => max_dp, max_int
@@ -227,6 +229,48 @@ contains
     if (.false.) recv_minus = [send_minus, send_plus]
 #endif
   end subroutine parallel_exchange_faces
+
+  !> Every rank sends send(first(r)+1 : first(r)+counts(r)) to rank r (first: the exclusive
+  !> prefix sum of counts, so send holds the parts in rank order) and receives, in rank
+  !> order, what each sent it into recv: one MPI_Alltoall of the counts, one MPI_Alltoallv of
+  !> the words. Used to bring rows to the rank of their global-id block (output, checkpoints),
+  !> where the destinations are any ranks, not only neighbours.
+  subroutine parallel_alltoallv(self, send, counts, recv, err)
+    class(parallel_t), intent(in) :: self
+    real(dp), intent(in) :: send(:)
+    integer, intent(in) :: counts(0:)            !< words for each rank 0..n_ranks-1
+    real(dp), allocatable, intent(out) :: recv(:)
+    type(error_t), intent(inout) :: err
+#ifdef RICOCHET_USE_MPI
+    integer, allocatable :: recv_counts(:), send_first(:), recv_first(:)
+    integer :: r, ierror
+#endif
+    if (size(counts) /= self%n_ranks .or. sum(int(counts, i8)) /= int(size(send), i8)) then
+      call err%set(ERR_INTERNAL, 'parallel: alltoallv with '//str(size(counts))//' counts summing to '// &
+                   str(sum(int(counts, i8)))//' for '//str(self%n_ranks)//' ranks and '//str(size(send))//' words')
+      allocate (recv(0))
+      return
+    end if
+#ifdef RICOCHET_USE_MPI
+    if (self%n_ranks > 1) then
+      allocate (recv_counts(0:self%n_ranks - 1), send_first(0:self%n_ranks - 1), recv_first(0:self%n_ranks - 1))
+      call MPI_Alltoall(counts, 1, MPI_INTEGER, recv_counts, 1, MPI_INTEGER, self%comm, ierror)
+      send_first(0) = 0
+      recv_first(0) = 0
+      do r = 1, self%n_ranks - 1
+        send_first(r) = send_first(r - 1) + counts(r - 1)
+        recv_first(r) = recv_first(r - 1) + recv_counts(r - 1)
+      end do
+      allocate (recv(sum(recv_counts)))
+      if (ierror == MPI_SUCCESS) call MPI_Alltoallv(send, counts, send_first, MPI_DOUBLE_PRECISION, recv, &
+                                                    recv_counts, recv_first, MPI_DOUBLE_PRECISION, self%comm, ierror)
+      if (ierror /= MPI_SUCCESS) call err%set(ERR_PARALLEL, 'parallel: alltoallv failed (MPI error '// &
+                                              str(ierror)//')')
+      return
+    end if
+#endif
+    recv = send
+  end subroutine parallel_alltoallv
 
   pure logical function parallel_is_root(self)
     class(parallel_t), intent(in) :: self

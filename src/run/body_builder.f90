@@ -20,7 +20,7 @@ module body_builder
   use body_state, only: bodies_t
   implicit none
   private
-  public :: build_shapes, build_bodies, count_bodies, owned_range
+  public :: build_shapes, build_bodies, count_bodies
 
 contains
 
@@ -33,16 +33,6 @@ contains
       count_bodies = count_bodies + product(int(deck%bodies(k)%copies, i8))
     end do
   end function count_bodies
-
-  !> Global ids first..last owned by rank `rank` of `n_ranks` before any spatial
-  !> decomposition: contiguous blocks of nearly equal size.
-  pure subroutine owned_range(n_total, rank, n_ranks, first, last)
-    integer(i8), intent(in) :: n_total
-    integer, intent(in) :: rank, n_ranks
-    integer(i8), intent(out) :: first, last
-    first = (n_total*rank)/n_ranks + 1
-    last = (n_total*(rank + 1))/n_ranks
-  end subroutine owned_range
 
   !> Builds every distinct shape once; shape_of_group(k) is the library index of group k.
   subroutine build_shapes(deck, shapes, shape_of_group, err)

@@ -108,7 +108,10 @@ contains
   !> islands of the bodies within reach of one another stepped once. The same at the start,
   !> at a restart and after a checkpoint, so that a restart continues as the run did.
   !> t_hard: island steps end there (the next checkpoint or the end) [s].
-  subroutine loop_init(self, stage, bodies, shapes, flight, gravity, config, t, dt_max, t_hard, err)
+  !> keep_anchors: bodies already anchored keep their anchors (their state at t in bodies
+  !> evaluated from them): the loop is rebuilt after a migration changed which bodies this
+  !> rank holds, and the trajectories go on bit for bit as on one rank.
+  subroutine loop_init(self, stage, bodies, shapes, flight, gravity, config, t, dt_max, t_hard, err, keep_anchors)
     class(event_loop_t), intent(inout) :: self
     type(collision_stage_t), intent(inout) :: stage
     type(bodies_t), intent(inout) :: bodies
@@ -117,9 +120,13 @@ contains
     real(dp), intent(in) :: gravity(3), t, dt_max, t_hard
     type(integrator_config_t), intent(in) :: config
     type(error_t), intent(inout) :: err
+    logical, intent(in), optional :: keep_anchors
+    logical :: keep
     integer :: n, i, j, k, slot
     integer, allocatable :: seeds(:)
     integer :: n_seeds
+    keep = .false.
+    if (present(keep_anchors)) keep = keep_anchors
     n = bodies%n_owned + bodies%n_ghost
     self%time = t
     self%gravity = gravity
@@ -166,7 +173,7 @@ contains
     call stage%reserve_table(16, n)
     do i = 1, n
       if (.not. bodies%fixed(i)) then
-        call flight%anchor_at(bodies, i, t)
+        if (.not. (keep .and. flight%is_anchored(i))) call flight%anchor_at(bodies, i, t)
         self%version(i) = self%version(i) + 1
       end if
       call place(self, bodies, shapes, i, err)

@@ -1,10 +1,11 @@
-!> Which bodies a rank owns until the domain decomposition lands (docs/architecture.md):
-!> contiguous blocks of global ids, each rank integrating its own, is exact only when no
-!> two bodies can ever touch (each rank finds contacts among its own bodies alone). So a
-!> run on several ranks first asks whether any contact is possible at all before t_end:
-!> without one, every body flies free and the blocks are exact; with one, every body is
-!> given to rank 0, which then runs the scene exactly as one rank does (the other ranks
-!> take part in the collectives with no bodies), never a silently wrong answer.
+!> Whether a run on several ranks may split its bodies (docs/architecture.md, "Domain
+!> decomposition"): until cross-rank contacts are built, ranks that own bricks of the scene
+!> find contacts among their own bodies alone, which is exact only when no two bodies can
+!> ever interact. So a run on several ranks first asks whether any interaction is possible
+!> at all before t_end: without one, every body flies free and the bricks are exact; with
+!> one, every body is given to rank 0, which then runs the scene exactly as one rank does
+!> (the other ranks take part in the collectives with no bodies), never a silently wrong
+!> answer.
 module ownership
   use kinds, only: dp, i8
   use shape, only: shape_library_t
@@ -12,7 +13,7 @@ module ownership
   use sorting, only: sort_index_real
   implicit none
   private
-  public :: contact_possible, owned_block
+  public :: contact_possible
 
 contains
 
@@ -23,11 +24,14 @@ contains
   !> centre). Should no pair's boxes overlap, no contact ever changes a trajectory, so
   !> the free flights are the run. Sort and sweep along x: O(n log n) plus the overlaps
   !> (it stops at the first). bodies holds every body of the run.
-  logical function contact_possible(shapes, bodies, duration, gravity, pair) result(possible)
+  !> margin: a gap below which two bodies interact without touching (the contact band of
+  !> the minimum separation: distance corrections and contact passes act there) [m].
+  logical function contact_possible(shapes, bodies, duration, gravity, pair, margin) result(possible)
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
     real(dp), intent(in) :: duration      !< t_end - t0 [s]
     real(dp), intent(in) :: gravity(3)    !< [m/s^2]
+    real(dp), intent(in) :: margin        !< [m]
     integer(i8), intent(out) :: pair(2)   !< global ids of the first pair found (if any)
     real(dp), allocatable :: lower(:, :), upper(:, :), reach(:)
     integer, allocatable :: order(:)
@@ -38,7 +42,7 @@ contains
     pair = 0
     allocate (lower(3, n), upper(3, n), reach(n))
     do i = 1, n
-      r = shapes%shapes(bodies%shape_id(i))%bounding_radius
+      r = shapes%shapes(bodies%shape_id(i))%bounding_radius + 0.5_dp*margin
       reach(i) = r
       lower(:, i) = bodies%x(:, i)
       upper(:, i) = bodies%x(:, i)
@@ -92,22 +96,5 @@ contains
     if (dot_product(u, u) > 0.0_dp) t = min(max(-dot_product(d, u)/dot_product(u, u), 0.0_dp), duration)
     distance = norm2(d + u*t)
   end function closest_approach
-
-  !> Global ids first..last owned by rank `rank` of `n_ranks`: contiguous blocks of nearly
-  !> equal size, or, when contacts are possible, every body on rank 0 (first > last
-  !> elsewhere: none).
-  pure subroutine owned_block(n_total, rank, n_ranks, contacts, first, last)
-    integer(i8), intent(in) :: n_total
-    integer, intent(in) :: rank, n_ranks
-    logical, intent(in) :: contacts
-    integer(i8), intent(out) :: first, last
-    if (contacts) then
-      first = 1
-      last = merge(n_total, 0_i8, rank == 0)
-    else
-      first = (n_total*rank)/n_ranks + 1
-      last = (n_total*(rank + 1))/n_ranks
-    end if
-  end subroutine owned_block
 
 end module ownership

@@ -12,7 +12,10 @@ module simulation
   use shape, only: shape_library_t
   use body_state, only: bodies_t, copy_row
   use body_builder, only: build_shapes, build_bodies, count_bodies
-  use ownership, only: contact_possible, owned_block
+  use ownership, only: contact_possible
+  use domain, only: domain_t, suggest_dims
+  use migration, only: migrate_bodies, migration_stats_t
+  use gid_blocks, only: gather_gid_blocks
   use restart_check, only: check_restored_state, check_same_bodies, compare_decks, deck_change_t
   use deck_reader, only: effective_deck_lines
   use conservation, only: system_totals_t, compute_totals
@@ -73,6 +76,14 @@ module simulation
     type(collision_stage_t) :: collisions     !< times of contact and impulses
     type(event_loop_t) :: events              !< the local event loop (local = .true.)
     logical :: local = .false.                !< events = 'local': the local loop, not global steps
+    !> Bodies owned by the brick of their centre (docs/architecture.md, "Domain
+    !> decomposition"): several ranks and no interaction possible before t_end.
+    logical :: decomposed = .false.
+    type(domain_t) :: dom
+    real(dp) :: window_end = huge(1.0_dp)     !< the next migration [s]
+    real(dp) :: previous_stop = 0.0_dp        !< the last output stop of the local loop [s]
+    integer(i8) :: windows = 0                !< windows ended by a migration, this run
+    type(migration_stats_t) :: migration
     logical :: restarted = .false.
     !> Why the run stopped before t_end (run_stopped): 0 it did not, 128 + the signal number
     !> for SIGTERM/SIGINT (143, 130: what shells and schedulers report for a signal), or
@@ -91,7 +102,7 @@ contains
 
   subroutine simulation_init(self, par, deck, output_dir, restart_path, err)
     class(simulation_t), intent(inout) :: self
-    type(parallel_t), intent(in) :: par
+    type(parallel_t), intent(inout) :: par     !< (a decomposed run makes its Cartesian communicator)
     type(deck_t), intent(in) :: deck
     character(len=*), intent(in) :: output_dir     !< where frames, history, checkpoints go
     character(len=*), intent(in) :: restart_path   !< checkpoint to continue from, or ''
@@ -133,27 +144,37 @@ contains
                                    min_separation_for(deck, smallest_moving_extent(self%shapes, everyone)), &
                                    deck%contact%min_separation <= 0.0_dp, err)
     if (err%failed()) return
-    ! Owners: contiguous id blocks when no two bodies can touch before t_end, otherwise
-    ! every body on rank 0 (contacts across ranks need the domain decomposition).
+    ! One grid box size and one auto minimum separation for every rank: from the smallest
+    ! moving body of all (every rank holds every body here); per-body tables are sized
+    ! for all of them, so that migration never outgrows them.
+    call self%collisions%init(deck, self%shapes, everyone, err)
+    if (err%failed()) return
+    ! Owners: the bricks of a domain decomposition when no two bodies can interact before
+    ! t_end, otherwise every body on rank 0 (contacts across ranks are not built yet).
     contacts = .false.
     if (par%n_ranks > 1) then
-      contacts = contact_possible(self%shapes, everyone, deck%run%t_end - self%time, deck%run%gravity, pair)
+      contacts = contact_possible(self%shapes, everyone, deck%run%t_end - self%time, deck%run%gravity, pair, &
+                                  2.0_dp*(self%collisions%target + self%collisions%tolerance + &
+                                          self%collisions%contact_tolerance))
       if (contacts .and. par%is_root()) then
         write (*, '(a)') 'ricochet: notice: bodies '//str(pair(1))//' and '//str(pair(2))//' may touch before '// &
-          't_end, and contacts between bodies of different ranks need the domain decomposition (not built '// &
-          'yet): every body runs on rank 0, the other '//str(par%n_ranks - 1)//' rank(s) wait'
+          't_end, and contacts between bodies of different ranks are not built yet: every body runs on '// &
+          'rank 0, the other '//str(par%n_ranks - 1)//' rank(s) wait'
         flush (output_unit)
       end if
+      if (.not. contacts) call decompose(self, par, everyone, err)
+      if (err%failed()) return
     end if
-    call owned_block(self%n_total, par%rank, par%n_ranks, contacts, first, last)
-    call take_rows(everyone, first, last, self%bodies)
+    if (self%decomposed) then
+      call take_brick(everyone, self%dom, self%bodies)
+    else
+      ! every body on rank 0 (the only rank of a serial run)
+      first = 1
+      last = merge(self%n_total, 0_i8, par%is_root())
+      call take_rows(everyone, first, last, self%bodies)
+    end if
     call everyone%free()
     call self%propagator%init(self%bodies%n_owned, deck%integrator)
-    ! One grid box size and one auto minimum separation for every rank: from the smallest
-    ! moving body of all.
-    call self%collisions%init(deck, self%shapes, self%bodies, err, &
-                              smallest_extent=par%min(smallest_moving_extent(self%shapes, self%bodies)))
-    if (err%failed()) return
 
     self%collisions%log_events = deck%output%event_log
     call choose_event_loop(deck, self%local, err)
@@ -192,7 +213,133 @@ contains
     if (self%local) call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, &
                                           deck%run%gravity, deck%integrator, self%time, deck%run%dt_max, &
                                           min(deck%run%t_end, self%next_checkpoint), err)
+    self%previous_stop = self%time
+    if (self%decomposed) self%window_end = self%time + motion_window(self, par)
   end subroutine simulation_init
+
+  !> The bricks of this run on par's ranks (decomposed = .true.), or, when the scene is too
+  !> small to give every rank two grid boxes along a split axis, none (a notice; every body
+  !> then runs on rank 0). The global box holds every body's bounding sphere at the start.
+  subroutine decompose(self, par, everyone, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(inout) :: par
+    type(bodies_t), intent(in) :: everyone
+    type(error_t), intent(inout) :: err
+    real(dp) :: lower(3), upper(3), r
+    integer(i8) :: n_boxes(3)
+    integer :: dims(3), i
+    type(error_t) :: why
+    lower = huge(1.0_dp)
+    upper = -huge(1.0_dp)
+    do i = 1, everyone%n_owned
+      r = self%shapes%shapes(everyone%shape_id(i))%bounding_radius
+      lower = min(lower, everyone%x(:, i) - r)
+      upper = max(upper, everyone%x(:, i) + r)
+    end do
+    n_boxes = int(floor(upper/self%collisions%box_size) - floor(lower/self%collisions%box_size), i8) + 1
+    call suggest_dims(par%n_ranks, [0, 0, 0], dims, why, n_boxes)
+    if (why%ok()) call self%dom%init(self%collisions%box_size, lower, upper, dims, par%rank, why)
+    if (why%failed()) then
+      if (par%is_root()) then
+        write (*, '(a)') 'ricochet: notice: no domain decomposition over '//str(par%n_ranks)//' ranks ('// &
+          trim(why%message)//'): every body runs on rank 0'
+        flush (output_unit)
+      end if
+      return
+    end if
+    call par%cart_create(dims, err)
+    if (err%failed()) return
+    self%decomposed = .true.
+    if (par%is_root()) then
+      write (*, '(a)') '  domain decomposition '//str(dims(1))//' x '//str(dims(2))//' x '//str(dims(3))// &
+        ' bricks over '//str(self%dom%n_boxes(1))//' x '//str(self%dom%n_boxes(2))//' x '// &
+        str(self%dom%n_boxes(3))//' grid boxes of '//str(self%collisions%box_size, '(es10.3)')// &
+        ' m (no two bodies can interact before t_end: every rank runs its own)'
+      flush (output_unit)
+    end if
+  end subroutine decompose
+
+  !> The bodies of all whose centre lies in this rank's brick, in global-id order.
+  subroutine take_brick(all, dom, owned)
+    type(bodies_t), intent(in) :: all
+    type(domain_t), intent(in) :: dom
+    type(bodies_t), intent(inout) :: owned
+    integer :: i, n
+    n = 0
+    do i = 1, all%n_owned
+      if (dom%owner_of(all%x(:, i)) == dom%rank) n = n + 1
+    end do
+    call owned%allocate(n)
+    n = 0
+    do i = 1, all%n_owned
+      if (dom%owner_of(all%x(:, i)) /= dom%rank) cycle
+      n = n + 1
+      call copy_row(all, i, owned, n)
+    end do
+    owned%n_owned = n
+    owned%n_ghost = 0
+  end subroutine take_brick
+
+  !> The length of the next window [s]: the longest time in which no body can move more than
+  !> 0.9 grid box (|v| tau + |a| tau^2/2 with its velocity now and its acceleration), so
+  !> that at the window's end every body is at most one brick away from its owner (bricks
+  !> are at least two boxes wide) and migration needs only the neighbours. The smallest over
+  !> every rank (collective).
+  real(dp) function motion_window(self, par) result(window)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    real(dp) :: reach, speed, accel, v(3), tau
+    integer :: i
+    reach = 0.9_dp*self%collisions%box_size
+    window = huge(1.0_dp)
+    do i = 1, self%bodies%n_owned
+      if (self%bodies%fixed(i)) cycle
+      accel = norm2(self%propagator%acceleration(i, self%deck%run%gravity))
+      if (self%local .and. self%propagator%is_anchored(i)) then
+        v = self%propagator%v0(:, i) + (self%time - self%propagator%t0(i))* &
+            self%propagator%acceleration(i, self%deck%run%gravity)
+      else
+        v = self%bodies%v(:, i)
+      end if
+      speed = norm2(v)
+      ! the positive root of speed tau + accel tau^2/2 = reach, without cancellation
+      tau = 2.0_dp*reach/(speed + sqrt(speed*speed + 2.0_dp*accel*reach))
+      window = min(window, tau)
+    end do
+    window = par%min(window)
+  end function motion_window
+
+  !> A window's end: every body goes to the rank of its brick with its flight record (the
+  !> anchor: trajectories go on bit for bit), then the local loop is built again over the
+  !> bodies this rank now holds, keeping their anchors.
+  subroutine end_window(self, par, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    type(error_t), intent(inout) :: err
+    integer(i8), allocatable :: payload(:, :)
+    integer :: i
+    ! every body where it is now: it goes to the owner of its position at the window's end
+    if (self%local) call self%events%synchronize(self%bodies, self%propagator, self%time)
+    call self%propagator%pack_anchors(self%bodies%n_owned, payload)
+    call migrate_bodies(par, self%dom, self%bodies, err, stats=self%migration, payload=payload)
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'migration failed on another rank')
+      return
+    end if
+    call self%propagator%unpack_anchors(payload, self%deck%integrator)
+    self%windows = self%windows + 1
+    if (self%local) then
+      do i = 1, self%bodies%n_owned
+        if (.not. self%bodies%fixed(i) .and. self%propagator%is_anchored(i)) &
+          call self%propagator%evaluate(self%bodies, i, self%time, self%deck%run%gravity)
+      end do
+      call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
+                            self%deck%integrator, self%time, self%deck%run%dt_max, &
+                            min(self%deck%run%t_end, self%next_checkpoint), err, keep_anchors=.true.)
+      if (err%failed()) return
+    end if
+    self%window_end = self%time + motion_window(self, par)
+  end subroutine end_window
 
   !> The event loop a deck asks for: local (default with exact rotation) or global steps.
   subroutine choose_event_loop(deck, local, err)
@@ -413,6 +560,11 @@ contains
       self%resolve_wall = self%resolve_wall + (par%wtime() - clock)
       call write_due_outputs(self, par, t_end, checkpointed, err)
       if (err%failed()) return
+      ! (steps move no body more than a grid box, so a window ends at a step's end)
+      if (self%decomposed .and. self%time >= self%window_end .and. self%time < t_end) then
+        call end_window(self, par, err)
+        if (err%failed()) return
+      end if
       call progress(self, par)
       ! every step end: every rank is here, all bodies at self%time
       call stop_if_requested(self, par, err)
@@ -429,12 +581,16 @@ contains
     type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
-    real(dp) :: t_end, t_stop, t_hard, clock
-    logical :: checkpointed
+    real(dp) :: t_end, t_stop, t_hard, clock, t_output
+    logical :: checkpointed, window_ends
     integer(i8) :: events_before
     t_end = self%deck%run%t_end
     do while (self%time < t_end)
-      t_stop = min(t_end, self%next_output, self%next_history, self%next_checkpoint)
+      t_output = min(t_end, self%next_output, self%next_history, self%next_checkpoint)
+      ! (a window that ends before the next output: a migration, nothing written)
+      window_ends = self%decomposed .and. self%window_end < t_output
+      t_stop = t_output
+      if (window_ends) t_stop = self%window_end
       t_hard = min(t_end, self%next_checkpoint)
       clock = par%wtime()
       events_before = self%events%stats%impacts + self%events%stats%island_steps
@@ -443,12 +599,19 @@ contains
       self%detection_wall = self%detection_wall + (par%wtime() - clock)
       ! (events of every rank: the same count on any number of ranks)
       self%step = self%step + par%sum(self%events%stats%impacts + self%events%stats%island_steps - events_before)
-      self%last_dt = t_stop - self%time
       self%time = t_stop
+      self%collisions%stats%events = self%events%stats%impacts
+      if (window_ends) then
+        call end_window(self, par, err)
+        if (err%failed()) return
+        cycle
+      end if
+      ! (from the last output stop: the same history on any number of ranks)
+      self%last_dt = t_stop - self%previous_stop
+      self%previous_stop = t_stop
       clock = par%wtime()
       call self%events%synchronize(self%bodies, self%propagator, self%time)
       self%integration_wall = self%integration_wall + (par%wtime() - clock)
-      self%collisions%stats%events = self%events%stats%impacts
       call write_due_outputs(self, par, t_end, checkpointed, err)
       if (err%failed()) return
       if (checkpointed) then
@@ -456,6 +619,10 @@ contains
         call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
                               self%deck%integrator, self%time, self%deck%run%dt_max, &
                               min(t_end, self%next_checkpoint), err)
+        if (err%failed()) return
+      end if
+      if (self%decomposed .and. self%time >= self%window_end) then
+        call end_window(self, par, err)
         if (err%failed()) return
       end if
       call progress(self, par)
@@ -605,6 +772,7 @@ contains
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     type(error_t), intent(inout) :: err
+    type(bodies_t) :: blocks
     if (self%deck%output%check_overlaps) then
       ! Each rank checks its bodies: all of them on rank 0 when contacts are possible, and
       ! blocks that cannot touch otherwise (ownership): the verdict is agreed by all.
@@ -617,7 +785,17 @@ contains
       self%next_output = huge(1.0_dp)     ! no frames: steps need not land on output times
       return
     end if
-    call self%frames%write(par, self%time, self%bodies, self%shapes, self%group_names, err)
+    if (par%n_ranks > 1) then
+      ! in global-id blocks, so that the file is the same whoever owned which body
+      call gather_gid_blocks(par, self%bodies, self%n_total, blocks, err)
+      if (par%any(err%failed())) then
+        if (err%ok()) call err%set(ERR_INTERNAL, 'frame: another rank could not take its bodies')
+        return
+      end if
+      call self%frames%write(par, self%time, blocks, self%shapes, self%group_names, err)
+    else
+      call self%frames%write(par, self%time, self%bodies, self%shapes, self%group_names, err)
+    end if
     ! Output times are multiples of the interval, computed, not accumulated.
     self%next_output = real(self%frames%n_frames, dp)*self%output_interval
   end subroutine write_frame
@@ -628,6 +806,7 @@ contains
     character(len=*), intent(in) :: name
     type(error_t), intent(inout) :: err
     type(checkpoint_meta_t) :: meta
+    type(bodies_t) :: blocks
     ! Checkpoint k falls at k * interval: the next one follows from the time alone, so a
     ! restarted run numbers and places its checkpoints as the first run did.
     if (self%time >= self%next_checkpoint) then
@@ -637,7 +816,17 @@ contains
     ! Sleeping islands wake, as a run restarted from here starts with every body awake.
     call self%collisions%wake_all(self%bodies, self%propagator)
     call self%fill_meta(par, meta)
-    call write_checkpoint(par, join_path(self%output_dir, name//'.h5'), meta, self%bodies, err)
+    if (par%n_ranks > 1) then
+      ! in global-id blocks: the same file on any number of ranks, whoever owned which body
+      call gather_gid_blocks(par, self%bodies, self%n_total, blocks, err)
+      if (par%any(err%failed())) then
+        if (err%ok()) call err%set(ERR_INTERNAL, "checkpoint '"//name//"': another rank could not take its bodies")
+        return
+      end if
+      call write_checkpoint(par, join_path(self%output_dir, name//'.h5'), meta, blocks, err)
+    else
+      call write_checkpoint(par, join_path(self%output_dir, name//'.h5'), meta, self%bodies, err)
+    end if
     ! Exact flight re-anchors at the checkpoint's state, as a run restarted from it will, and
     ! no body carries the contact pass's load into the next step (the candidate pairs of a
     ! step's start depend on it: a restart has none).
@@ -701,9 +890,20 @@ contains
   subroutine simulation_summary(self, par)
     class(simulation_t), intent(in) :: self
     type(parallel_t), intent(in) :: par
-    real(dp) :: wall, per_step, min_sep
-    integer(i8) :: events, contacts, pair_tests
+    real(dp) :: wall, per_step, min_sep, load(3, 3)
+    integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages
     wall = par%wtime() - self%wall_start
+    ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
+    ! time (everything but waiting in collectives is not split out yet: the run's wall time).
+    load(:, 1) = real(self%bodies%n_owned, dp)
+    load(:, 2) = real(self%collisions%stats%events + self%events%stats%island_steps, dp)
+    load(:, 3) = self%detection_wall + self%integration_wall + self%contact_pass_wall + self%resolve_wall
+    load(1, :) = [par%min(load(1, 1)), par%min(load(1, 2)), par%min(load(1, 3))]
+    load(2, :) = [par%sum(load(2, 1)), par%sum(load(2, 2)), par%sum(load(2, 3))]/real(par%n_ranks, dp)
+    load(3, :) = [par%max(load(3, 1)), par%max(load(3, 2)), par%max(load(3, 3))]
+    migrated = par%sum(self%migration%bodies_left)
+    bytes = par%sum(self%migration%bytes_sent)
+    messages = par%sum(self%migration%messages_sent)
     ! Over every rank (collective, before rank 0 alone goes on to print).
     events = par%sum(self%collisions%stats%events)
     contacts = par%sum(self%collisions%stats%contacts)
@@ -732,6 +932,18 @@ contains
         str(self%resolve_wall, '(es9.3)')//' s'
     end if
     write (*, '(a,i0,a,i0,a)') '  bodies               ', self%n_total, ' in ', self%shapes%n_shapes, ' distinct shapes'
+    if (par%n_ranks > 1) then
+      write (*, '(a)') '  ranks (min/mean/max) bodies '//str(load(1, 1), '(g0.4)')//' / '//str(load(2, 1), '(g0.4)')// &
+        ' / '//str(load(3, 1), '(g0.4)')//', events '//str(load(1, 2), '(g0.4)')//' / '//str(load(2, 2), '(g0.4)')// &
+        ' / '//str(load(3, 2), '(g0.4)')//', busy '//str(load(1, 3), '(es9.3)')//' / '//str(load(2, 3), '(es9.3)')// &
+        ' / '//str(load(3, 3), '(es9.3)')//' s'
+      if (self%decomposed) then
+        write (*, '(a)') '  windows              '//str(self%windows)//' ended by a migration: '//str(migrated)// &
+          ' bodies changed rank, '//str(messages)//' messages, '//str(bytes)//' bytes'
+      else
+        write (*, '(a)') '  windows              none: every body on rank 0 (bodies may interact)'
+      end if
+    end if
     if (events > 0) write (*, '(a)') &
       '  (with contacts, energy is an invariant only for e = 1, momentum and angular momentum only '// &
       'without fixed bodies)'

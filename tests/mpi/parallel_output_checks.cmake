@@ -52,3 +52,18 @@ if(RICOCHET_USE_HDF5)
                          ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 300)
   endforeach()
 endif()
+
+# The domain decomposition of a scene whose bodies cannot interact (bricks, windows,
+# migration with the bodies' anchors, output in global-id blocks): 1, 2 and 4 ranks write
+# the same files, and restarts continue across rank counts (4 -> 2, 4 -> 1, 1 -> 4).
+if(RICOCHET_USE_HDF5)
+  set(workdir ${CMAKE_CURRENT_BINARY_DIR}/run/mpi_decomposition)
+  file(MAKE_DIRECTORY ${workdir})
+  add_test(NAME mpi.decomposition_crossing_bricks
+           COMMAND ${RICOCHET_PYTHON} ${CMAKE_CURRENT_SOURCE_DIR}/mpi/check_decomposition.py
+                   $<TARGET_FILE:ricochet> ${PROJECT_SOURCE_DIR}/input/validation/crossing_bricks.nml ${workdir}
+                   ${MPIEXEC_EXECUTABLE} ${MPIEXEC_PREFLAGS}
+           WORKING_DIRECTORY ${workdir})
+  set_tests_properties(mpi.decomposition_crossing_bricks PROPERTIES LABELS "mpi;regression"
+                       ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 300)
+endif()

@@ -26,7 +26,8 @@ module h5_utils
                   h5aget_type_f, h5tcopy_f, h5tclose_f, h5tset_size_f, h5tget_size_f, h5tset_strpad_f, &
                   h5tget_class_f, H5T_STR_NULLPAD_F, H5T_STRING_F, H5T_C_S1, H5T_NATIVE_DOUBLE, &
                   H5T_NATIVE_INTEGER, H5T_IEEE_F64LE, H5T_STD_I64LE, H5T_STD_I32LE, h5kind_to_type, &
-                  H5_INTEGER_KIND
+                  H5_INTEGER_KIND, H5P_DATASET_CREATE_F, H5P_GROUP_CREATE_F, h5pset_obj_track_times_f, &
+                  h5pset_alloc_time_f, H5D_ALLOC_TIME_EARLY_F
   use mpi_f08, only: MPI_INFO_NULL   ! a constant handle for HDF5's integer-handle API, not an MPI call
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_IO
@@ -156,10 +157,16 @@ contains
     character(len=*), intent(in) :: name
     integer(hid_t), intent(out) :: group_id
     type(error_t), intent(inout) :: err
-    integer :: status
+    integer(hid_t) :: gcpl
+    integer :: status, close_status
     group_id = no_id
+    gcpl = no_id
     if (err%failed()) return
-    call h5gcreate_f(loc, name, group_id, status)
+    call h5pcreate_f(H5P_GROUP_CREATE_F, gcpl, status)
+    ! (no creation times: a file is the same bytes whenever and on however many ranks it is written)
+    if (status == 0) call h5pset_obj_track_times_f(gcpl, .false., status)
+    if (status == 0) call h5gcreate_f(loc, name, group_id, status, gcpl_id=gcpl)
+    if (gcpl >= 0) call h5pclose_f(gcpl, close_status)
     if (status /= 0) then
       group_id = no_id
       call err%set(ERR_IO, "cannot create group '"//name//"'")
@@ -236,7 +243,7 @@ contains
     integer, intent(in) :: n_local
     type(c_ptr), intent(in) :: buffer
     type(error_t), intent(inout) :: err
-    integer(hid_t) :: file_space, mem_space, dset, xfer
+    integer(hid_t) :: file_space, mem_space, dset, xfer, dcpl
     integer(hsize_t) :: dims(2), start(2), block(2)
     integer :: rank, status
     if (err%failed()) return
@@ -255,9 +262,15 @@ contains
       start = [int(offset, hsize_t), 0_hsize_t]
       block = [int(n_local, hsize_t), 1_hsize_t]
     end if
-    file_space = no_id; mem_space = no_id; dset = no_id; xfer = no_id
+    file_space = no_id; mem_space = no_id; dset = no_id; xfer = no_id; dcpl = no_id
     call h5screate_simple_f(rank, dims(1:rank), file_space, status)
-    if (status == 0) call h5dcreate_f(loc, name, file_type, file_space, dset, status)
+    ! The same file bytes on any number of ranks: no creation times in object headers, and
+    ! storage allocated at creation as the MPI-IO driver always does (the POSIX driver of a
+    ! one-rank run would otherwise place it later).
+    if (status == 0) call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, status)
+    if (status == 0) call h5pset_obj_track_times_f(dcpl, .false., status)
+    if (status == 0) call h5pset_alloc_time_f(dcpl, H5D_ALLOC_TIME_EARLY_F, status)
+    if (status == 0) call h5dcreate_f(loc, name, file_type, file_space, dset, status, dcpl_id=dcpl)
     if (status == 0) then
       if (n_local > 0) then
         call h5sselect_hyperslab_f(file_space, H5S_SELECT_SET_F, start(1:rank), block(1:rank), status)
@@ -280,6 +293,7 @@ contains
     end if
     if (status /= 0) call err%set(ERR_IO, "cannot write dataset '"//name//"'")
     if (xfer >= 0) call h5pclose_f(xfer, status)
+    if (dcpl >= 0) call h5pclose_f(dcpl, status)
     if (dset >= 0) call h5dclose_f(dset, status)
     if (mem_space >= 0) call h5sclose_f(mem_space, status)
     if (file_space >= 0) call h5sclose_f(file_space, status)

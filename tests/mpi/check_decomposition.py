@@ -1,0 +1,134 @@
+"""The domain decomposition of a scene whose bodies cannot interact: the same deck on 1, 2 and
+4 ranks (bricks of 2 x 1 x 1 and 2 x 2 x 1, bodies migrating between them) writes the same
+files, restarts continue across rank counts as the uninterrupted run, and free flight is
+exact.
+
+Usage: check_decomposition.py EXE DECK WORKDIR MPIEXEC [MPIEXEC FLAGS...]
+
+What "the same" means, and why:
+- frames: cmp-identical files (HDF5 with no creation times and early allocation, bodies in
+  global-id blocks whoever owned them);
+- checkpoints: every dataset and attribute bit for bit except the attributes n_ranks and
+  wall_time_before (what they say differs by design) and the counters pair_tests and
+  min_separation: these sample the closest-point queries of the rank that certifies a pair,
+  and a decomposed run (no ghosts yet) neither sees a pair across a brick face nor keeps
+  its certificates through a migration (docs/architecture.md, "Domain decomposition");
+- history: every column except wall_time and min_separation (the same sampling).
+Free flight: every centre of mass of every frame is x0 + v0 t + g t^2/2 computed here in
+doubles, to 1e-12 m (|x| < 20 m: a few ulps of round-off, while any wrong anchor after a
+migration moves a body by far more)."""
+import filecmp
+import os
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "regression"))
+from ricochet_run import Checks, frames
+
+exe, deck, work, mpiexec = sys.argv[1:5]
+flags = sys.argv[5:]
+os.makedirs(work, exist_ok=True)
+c = Checks()
+SAMPLED_ATTRS = {"n_ranks", "wall_time_before"}
+SAMPLED_COUNTERS = {b"pair_tests", b"min_separation"}
+SAMPLED_COLUMNS = {13, 17}     # wall_time [s], min_separation [m] (0-based)
+
+
+def run(ranks, out, *extra):
+    if not extra:
+        shutil.rmtree(out, ignore_errors=True)
+    cmd = [mpiexec, "-n", str(ranks), *flags, exe, deck, "--output-dir", out, *extra]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    c.check(proc.returncode == 0, f"{ranks} rank(s) {' '.join(extra)}: exit {proc.returncode} "
+            f"{proc.stdout.strip()[-300:]} {proc.stderr.strip()[-500:]}")
+    return proc
+
+
+def same_checkpoint(a, b, what):
+    with h5py.File(a, "r") as x, h5py.File(b, "r") as y:
+        def walk(g, h, path):
+            for k, v in g.attrs.items():
+                if k in SAMPLED_ATTRS:
+                    continue
+                c.check(k in h.attrs and np.asarray(v).tobytes() == np.asarray(h.attrs[k]).tobytes(),
+                        f"{what}: attribute {path}/{k}")
+            c.check(sorted(g.keys()) == sorted(h.keys()), f"{what}: the same datasets in {path}/")
+            for k in g:
+                if k not in h:
+                    continue
+                if isinstance(g[k], h5py.Group):
+                    walk(g[k], h[k], path + "/" + k)
+                    continue
+                u, w = g[k][()], h[k][()]
+                if path + "/" + k == "/meta/counters":
+                    names = list(g["counter_names"][()])
+                    keep = [i for i, n in enumerate(names) if n not in SAMPLED_COUNTERS]
+                    u, w = u[keep], w[keep]
+                c.check(u.shape == w.shape and u.tobytes() == w.tobytes(), f"{what}: dataset {path}/{k} bit for bit")
+        walk(x, y, "")
+
+
+def same_history(a, b, what, from_time=None):
+    ra = [l.rstrip("\n").split(",") for l in open(os.path.join(a, "history.csv"))][1:]
+    rb = [l.rstrip("\n").split(",") for l in open(os.path.join(b, "history.csv"))][1:]
+    strip = lambda rows: [[x for i, x in enumerate(r) if i not in SAMPLED_COLUMNS] for r in rows]
+    c.check(strip(ra) == strip(rb), f"{what}: history.csv the same rows (but wall time, min_separation)")
+
+
+def same_frames(a, b, what, first=0):
+    names = sorted(os.listdir(os.path.join(a, "frames")))
+    other = sorted(os.listdir(os.path.join(b, "frames")))
+    c.check(names == other, f"{what}: the same frame files ({len(names)} against {len(other)})")
+    for name in names[first:]:
+        if name in other:
+            c.check(filecmp.cmp(os.path.join(a, "frames", name), os.path.join(b, "frames", name), shallow=False),
+                    f"{what}: frames/{name} cmp-identical")
+    for name in ("bodies.xmf", "surfaces.xmf"):
+        c.check(filecmp.cmp(os.path.join(a, name), os.path.join(b, name), shallow=False), f"{what}: {name} identical")
+
+
+outs = {}
+for ranks in (1, 2, 4):
+    out = os.path.join(work, f"ranks{ranks}")
+    proc = run(ranks, out)
+    outs[ranks] = out
+    if ranks > 1:
+        c.check("domain decomposition" in proc.stdout and "ended by a migration" in proc.stdout,
+                f"{ranks} ranks: the run was decomposed and migrated ({proc.stdout[-400:]})")
+        migrated = [l for l in proc.stdout.splitlines() if "ended by a migration" in l]
+        c.check(bool(migrated) and " 0 bodies changed rank" not in migrated[0],
+                f"{ranks} ranks: bodies changed rank ({migrated})")
+for ranks in (2, 4):
+    what = f"1 vs {ranks} ranks"
+    same_frames(outs[1], outs[ranks], what)
+    same_history(outs[1], outs[ranks], what)
+    for name in sorted(os.listdir(outs[1])):
+        if name.startswith("checkpoint_") and name.endswith(".h5"):
+            same_checkpoint(os.path.join(outs[1], name), os.path.join(outs[ranks], name), f"{what}, {name}")
+
+# Restarts across rank counts: 4 -> 2, 4 -> 1 and 1 -> 4 from the first checkpoint.
+for written, continued in ((4, 2), (4, 1), (1, 4)):
+    what = f"checkpoint written on {written}, continued on {continued}"
+    out = os.path.join(work, f"restart_{written}_{continued}")
+    shutil.rmtree(out, ignore_errors=True)
+    shutil.copytree(outs[written], out)
+    for name in os.listdir(out):
+        if name.startswith("checkpoint_") and name not in ("checkpoint_000001.h5",):
+            os.remove(os.path.join(out, name))
+    run(continued, out, "--restart", os.path.join(out, "checkpoint_000001.h5"))
+    same_checkpoint(os.path.join(outs[1], "checkpoint_final.h5"), os.path.join(out, "checkpoint_final.h5"),
+                    what + ", checkpoint_final")
+    same_frames(outs[1], out, what)
+    same_history(outs[1], out, what)
+
+# Free flight is exact on every rank count (the anchors travel with the bodies).
+g = np.array([0.0, 0.0, -9.81])
+fr = frames(outs[4])
+x0, v0 = fr[0][1]["position"], fr[0][1]["velocity"]
+worst = max(np.abs(d["position"] - (x0 + v0 * t + 0.5 * g * t * t)).max() for t, d in fr)
+c.check(worst <= 1e-12, f"4 ranks: every centre on x0 + v0 t + g t^2/2 (largest deviation {worst:.2e} m)")
+c.finish()
