@@ -7,7 +7,7 @@ module input_config
   use constants, only: name_length, path_length
   implicit none
   private
-  public :: run_config_t, integrator_config_t, contact_config_t, output_config_t, body_spec_t, &
+  public :: run_config_t, parallel_config_t, integrator_config_t, contact_config_t, output_config_t, body_spec_t, &
             deck_t, ROTATION_NEWMARK, ROTATION_EXACT, EVENTS_AUTO, EVENTS_LOCAL, EVENTS_GLOBAL, &
             RULE_MIN, RULE_MAX, RULE_MEAN, RULE_GEOMETRIC
 
@@ -21,6 +21,11 @@ module input_config
   character(len=*), parameter :: RULE_MAX = 'max'
   character(len=*), parameter :: RULE_MEAN = 'mean'             !< arithmetic mean
   character(len=*), parameter :: RULE_GEOMETRIC = 'geometric'   !< sqrt(a b) (friction only)
+
+  !> &parallel: how a run on several ranks is cut into bricks (docs/input.md).
+  type :: parallel_config_t
+    integer :: dims(3) = 0      !< ranks along x, y, z; 0: chosen (the longest axis cut first)
+  end type parallel_config_t
 
   type :: run_config_t
     character(len=256) :: title = 'ricochet run'
@@ -121,6 +126,7 @@ module input_config
     type(integrator_config_t) :: integrator
     type(contact_config_t) :: contact
     type(output_config_t) :: output
+    type(parallel_config_t) :: parallel
     integer :: n_bodies = 0                  !< number of &body groups
     type(body_spec_t), allocatable :: bodies(:)
   end type deck_t

@@ -38,6 +38,7 @@ module deck_reader
   use integrator_group, only: read_integrator_group, write_integrator_group
   use contact_group, only: read_contact_group, write_contact_group
   use output_group, only: read_output_group, write_output_group
+  use parallel_group, only: read_parallel_group, write_parallel_group
   use body_group, only: read_body_group, write_body_group
   implicit none
   private
@@ -82,6 +83,8 @@ contains
         call read_contact_group(src, src%groups(k), deck%contact, err)
       case ('output')
         call read_output_group(src, src%groups(k), deck%folder, deck%output, err)
+      case ('parallel')
+        call read_parallel_group(src, src%groups(k), deck%parallel, err)
       case ('body')
         i_body = i_body + 1
         call read_body_group(src, src%groups(k), i_body, deck%folder, deck%bodies(i_body), err)
@@ -182,6 +185,7 @@ contains
     call write_integrator_group(deck%integrator, unit)
     call write_contact_group(deck%contact, unit)
     call write_output_group(deck%output, unit)
+    call write_parallel_group(deck%parallel, unit)
     if (.not. allocated(deck%bodies)) return
     do k = 1, deck%n_bodies
       call write_body_group(deck%bodies(k), k, unit)

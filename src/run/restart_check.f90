@@ -227,6 +227,9 @@ contains
     class = class_refused
     if (group == '&output') then
       class = class_allowed
+    else if (group == '&parallel') then
+      ! how the scene is cut over ranks: the answer is the same (docs/architecture.md)
+      class = class_ignored
     else if (group == '&run') then
       if (variable == 't_end' .or. variable == 'wall_limit') class = class_allowed
     else if (group(1:5) == '&body') then

@@ -237,8 +237,15 @@ contains
       upper = max(upper, everyone%x(:, i) + r)
     end do
     n_boxes = int(floor(upper/self%collisions%box_size) - floor(lower/self%collisions%box_size), i8) + 1
-    call suggest_dims(par%n_ranks, [0, 0, 0], dims, why, n_boxes)
+    call suggest_dims(par%n_ranks, self%deck%parallel%dims, dims, why, n_boxes)
     if (why%ok()) call self%dom%init(self%collisions%box_size, lower, upper, dims, par%rank, why)
+    if (why%failed() .and. any(self%deck%parallel%dims > 0)) then
+      ! dims the deck asked for: an error, not a quiet fallback
+      call err%set(ERR_INPUT, self%deck%path//': &parallel: dims = '//str(self%deck%parallel%dims(1))//', '// &
+                   str(self%deck%parallel%dims(2))//', '//str(self%deck%parallel%dims(3))//' on '// &
+                   str(par%n_ranks)//' ranks: '//trim(why%message))
+      return
+    end if
     if (why%failed()) then
       if (par%is_root()) then
         write (*, '(a)') 'ricochet: notice: no domain decomposition over '//str(par%n_ranks)//' ranks ('// &

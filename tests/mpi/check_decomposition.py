@@ -110,6 +110,26 @@ for ranks in (2, 4):
         if name.startswith("checkpoint_") and name.endswith(".h5"):
             same_checkpoint(os.path.join(outs[1], name), os.path.join(outs[ranks], name), f"{what}, {name}")
 
+# The bricks the deck asks for (&parallel dims = 4, 1, 1: more crossings along x) give the
+# same frames and history again; dims that do not divide the ranks are an error naming them.
+with open(deck) as f:
+    text = f.read()
+for dims, expect in (("4, 1, 1", True), ("3, 0, 0", False)):
+    copy = os.path.join(work, f"dims_{dims.replace(', ', '')}.nml")
+    with open(copy, "w") as f:
+        f.write(text + f"\n&parallel dims = {dims} /\n")
+    out = os.path.join(work, f"dims_{dims.replace(', ', '')}")
+    shutil.rmtree(out, ignore_errors=True)
+    proc = subprocess.run([mpiexec, "-n", "4", *flags, exe, copy, "--output-dir", out], capture_output=True, text=True)
+    if expect:
+        c.check(proc.returncode == 0 and "decomposition 4 x 1 x 1" in proc.stdout,
+                f"&parallel dims = {dims}: 4 x 1 x 1 bricks ({proc.stdout[-300:]} {proc.stderr[-300:]})")
+        same_frames(outs[1], out, f"1 rank vs dims = {dims}")
+        same_history(outs[1], out, f"1 rank vs dims = {dims}")
+    else:
+        c.check(proc.returncode != 0 and "&parallel: dims = 3, 0, 0 on 4 ranks" in proc.stderr,
+                f"&parallel dims = {dims} on 4 ranks: an error naming the group ({proc.stderr[-300:]})")
+
 # Restarts across rank counts: 4 -> 2, 4 -> 1 and 1 -> 4 from the first checkpoint.
 for written, continued in ((4, 2), (4, 1), (1, 4)):
     what = f"checkpoint written on {written}, continued on {continued}"

@@ -39,9 +39,9 @@ module namelist_source
     integer :: length = 0
   end type var_spec_t
 
-  character(len=*), parameter :: known_groups = '&run, &integrator, &contact, &output, &body'
-  character(len=10), parameter :: group_names(5) = [character(len=10) :: &
-    'run', 'integrator', 'contact', 'output', 'body']
+  character(len=*), parameter :: known_groups = '&run, &integrator, &contact, &output, &parallel, &body'
+  character(len=10), parameter :: group_names(6) = [character(len=10) :: &
+    'run', 'integrator', 'contact', 'output', 'parallel', 'body']
 
   type :: token_t
     integer :: kind = 0
@@ -267,14 +267,14 @@ contains
       if (first(j) /= 0 .and. src%groups(k)%name /= 'body') then
         call err%set(ERR_INPUT, src%path//':'//str(src%groups(k)%first_line)//': &'//src%groups(k)%name// &
                      ' appears again (first at line '//str(first(j))// &
-                     '); &run, &integrator, &contact and &output may each appear once')
+                     '); &run, &integrator, &contact, &output and &parallel may each appear once')
         return
       end if
       if (first(j) == 0) first(j) = src%groups(k)%first_line
     end do
     if (first(1) == 0) then
       call err%set(ERR_INPUT, src%path//': no &run group: a deck needs &run with t_end and dt_max')
-    else if (first(5) == 0) then
+    else if (first(name_index(group_names, 'body')) == 0) then
       call err%set(ERR_INPUT, src%path//': no &body group: a deck needs at least one body')
     end if
   end subroutine check_group_structure

@@ -1,0 +1,54 @@
+!> The &parallel group of a deck (docs/input.md): how a run on several ranks is cut into
+!> bricks. Its variables, the namelist read with the defaults reset, its rules, and its text
+!> in the effective deck. Whether the dims fit the ranks and the scene is known only at run
+!> time (simulation: domain decomposition), which names this group then.
+module parallel_group
+  use error_status, only: error_t
+  use string_utils, only: str
+  use input_config, only: parallel_config_t
+  use namelist_source, only: V_INTEGER, var_spec_t, source_t, group_t, group_input_t, open_group, &
+                             prepare_group, translate_read_error, fail, put_integer
+  implicit none
+  private
+  public :: read_parallel_group, write_parallel_group
+
+  type(var_spec_t), parameter :: parallel_vars(1) = [var_spec_t('dims', V_INTEGER, 3, 0)]
+
+contains
+
+  subroutine read_parallel_group(src, group, config, err)
+    type(source_t), intent(in) :: src
+    type(group_t), intent(in) :: group
+    type(parallel_config_t), intent(out) :: config
+    type(error_t), intent(inout) :: err
+    type(group_input_t) :: g
+    integer :: dims(3), ios
+    character(len=512) :: msg
+    namelist /parallel/ dims
+
+    call open_group(src, group, parallel_vars, '&parallel', g)
+    call prepare_group(g, err)
+    if (err%failed()) return
+    ! Defaults reset before the read: config is intent(out), so it holds the type's defaults.
+    dims = config%dims
+    msg = ''
+    read (g%text, nml=parallel, iostat=ios, iomsg=msg)
+    if (ios /= 0) then
+      call translate_read_error(g, ios, msg, err)
+      return
+    end if
+    config%dims = dims
+    if (any(dims < 0)) call fail(g, err, 'dims', 'dims must be >= 0 ranks along each of x, y, z (0: chosen), got '// &
+                                 str(dims(1))//', '//str(dims(2))//', '//str(dims(3)))
+  end subroutine read_parallel_group
+
+  !> The group in the effective deck: every variable, defaults filled in.
+  subroutine write_parallel_group(config, unit)
+    type(parallel_config_t), intent(in) :: config
+    integer, intent(in) :: unit
+    write (unit, '(a)') '&parallel'
+    call put_integer(unit, 'dims', config%dims, 'ranks along x, y, z; 0: chosen')
+    write (unit, '(a)') '/'
+  end subroutine write_parallel_group
+
+end module parallel_group
