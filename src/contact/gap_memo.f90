@@ -13,6 +13,7 @@ module gap_memo
   use shape, only: shape_library_t, SHAPE_SPHERE
   use body_state, only: bodies_t
   use pair_geometry, only: pair_gap
+  use mesh_distance, only: feature_pair_t
   implicit none
   private
   public :: gap_memo_t
@@ -25,6 +26,9 @@ module gap_memo
     integer(i8), allocatable :: pose(:, :)     !< (key_words, n_slots) the poses' bits
     real(dp), allocatable :: gap(:)            !< [m]
     real(dp), allocatable :: normal(:, :)      !< (3, n_slots) unit, from i to j
+    !> (n_slots) the primitive pair that realised the gap: the next query of the same pair
+    !> at other poses starts from it (a bound only: the answer is the same without it)
+    type(feature_pair_t), allocatable :: hint(:)
     integer(i8) :: hits = 0, misses = 0
   contains
     procedure :: pair_gap => memo_pair_gap
@@ -60,7 +64,8 @@ contains
       return
     end if
     if (.not. allocated(self%ids)) then
-      allocate (self%ids(4, n_slots), self%pose(key_words, n_slots), self%gap(n_slots), self%normal(3, n_slots))
+      allocate (self%ids(4, n_slots), self%pose(key_words, n_slots), self%gap(n_slots), self%normal(3, n_slots), &
+                self%hint(n_slots))
       self%ids = 0
     end if
     key(1:3) = transfer(xi, key(1:3))
@@ -84,7 +89,11 @@ contains
       self%hits = self%hits + 1
       return
     end if
-    call pair_gap(shapes, bodies, i, j, xi, qi, xj, qj, gap, normal)
+    ! the same pair at other poses: its last pair of features is a good first bound
+    if (.not. (self%ids(1, slot) == i .and. self%ids(2, slot) == j .and. &
+               self%ids(3, slot) == bodies%shape_id(i) .and. self%ids(4, slot) == bodies%shape_id(j))) &
+      self%hint(slot) = feature_pair_t()
+    call pair_gap(shapes, bodies, i, j, xi, qi, xj, qj, gap, normal, self%hint(slot))
     self%misses = self%misses + 1
     self%ids(:, slot) = [i, j, bodies%shape_id(i), bodies%shape_id(j)]
     self%pose(:, slot) = key

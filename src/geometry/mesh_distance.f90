@@ -25,7 +25,7 @@ module mesh_distance
   use closest_primitives, only: closest_point_triangle, closest_segment_segment
   implicit none
   private
-  public :: distance_result_t, query_stats_t, relative_pose_t
+  public :: distance_result_t, query_stats_t, relative_pose_t, feature_pair_t
   public :: mesh_mesh_distance, mesh_mesh_distance_brute, sphere_sphere_distance, sphere_mesh_distance
   public :: make_relative_pose, box_gap2, point_box_gap2, edge_nodes
   public :: FEATURE_NONE, FEATURE_VERTEX_FACE, FEATURE_FACE_VERTEX, FEATURE_EDGE_EDGE, &
@@ -60,6 +60,15 @@ module mesh_distance
     integer :: feature_a(2) = 0
     integer :: feature_b(2) = 0
   end type distance_result_t
+
+  !> The primitive pair (slots and corners of the two trees, FEATURE_* kind) that realised a
+  !> query's distance: a query of the same two trees at nearby poses (the next iterate of
+  !> conservative advancement) tests it first, so that its traversal starts with a bound
+  !> close to the answer and prunes most box pairs.
+  type :: feature_pair_t
+    integer :: kind = FEATURE_NONE
+    integer :: sa = 0, ka = 0, sb = 0, kb = 0
+  end type feature_pair_t
 
   !> Work counters; queries add to them (reset with stats = query_stats_t()).
   type :: query_stats_t
@@ -188,19 +197,23 @@ contains
   !> Distance and closest points between mesh bodies A and B at poses (xa, qa), (xb, qb).
   !> upper_bound [m]: only distances below it are searched for (result%found tells); use it
   !> when only "closer than" matters, e.g. for time of contact. stats, if given, is added to.
-  subroutine mesh_mesh_distance(tree_a, xa, qa, tree_b, xb, qb, result, stats, upper_bound)
+  !> hint: the pair of an earlier query of the same two trees (B trees within the cache
+  !> sizes only), whose distance now bounds the search; on return the pair found, or kind
+  !> FEATURE_NONE. The answer is bitwise the same with or without it (see below).
+  subroutine mesh_mesh_distance(tree_a, xa, qa, tree_b, xb, qb, result, stats, upper_bound, hint)
     type(skd_tree_t), intent(in) :: tree_a, tree_b
     real(dp), intent(in) :: xa(3), qa(4), xb(3), qb(4)
     type(distance_result_t), intent(out) :: result
     type(query_stats_t), intent(inout), optional :: stats
     real(dp), intent(in), optional :: upper_bound
+    type(feature_pair_t), intent(inout), optional :: hint
     type(relative_pose_t) :: rel
-    integer :: stack_a(STACK_SIZE), stack_b(STACK_SIZE), top, na, nb, la, ra, lb, rb
-    real(dp) :: stack_g(STACK_SIZE), best2, g, g1, g2
+    integer :: stack_a(STACK_SIZE), stack_b(STACK_SIZE), top
+    real(dp) :: stack_g(STACK_SIZE), best2, g
     real(dp) :: pa(3), pb(3)
     integer :: best_kind, best_sa, best_sb, best_ka, best_kb
     integer(i8) :: n_box, n_leaf, n_prim
-    logical :: split_a, cached
+    logical :: cached, hinted
     ! B's boxes and faces in A's frame, each transformed once when first reached (a box of
     ! B meets several of A's): for trees of up to CACHE_BOXES boxes, else per visit.
     real(dp) :: cb(3, CACHE_BOXES), vb(3, 3, CACHE_BOXES)
@@ -219,63 +232,35 @@ contains
     best_sa = 0; best_sb = 0; best_ka = 0; best_kb = 0
     pa = 0.0_dp; pb = 0.0_dp
     n_box = 1; n_leaf = 0; n_prim = 0
-    top = 1
-    stack_a(1) = 1
-    stack_b(1) = 1
-    stack_g(1) = gap2(1, 1)
-    do while (top > 0)
-      na = stack_a(top)
-      nb = stack_b(top)
-      g = stack_g(top)
-      top = top - 1
-      if (g >= best2) cycle
-      if (tree_a%right(na) == 0 .and. tree_b%right(nb) == 0) then
-        n_leaf = n_leaf + 1
-        call leaf_pair(na, nb)
-        cycle
-      end if
-      if (tree_a%right(na) == 0) then
-        split_a = .false.
-      else if (tree_b%right(nb) == 0) then
-        split_a = .true.
-      else
-        split_a = sum(tree_a%box(4:6, na)) >= sum(tree_b%box(4:6, nb))
-      end if
-      ! Push the farther child first so the nearer is explored first (tightens best2 early).
-      if (split_a) then
-        la = na + 1
-        ra = tree_a%right(na)
-        g1 = gap2(la, nb)
-        g2 = gap2(ra, nb)
-        n_box = n_box + 2
-        if (g1 <= g2) then
-          call push(ra, nb, g2)
-          call push(la, nb, g1)
-        else
-          call push(la, nb, g1)
-          call push(ra, nb, g2)
-        end if
-      else
-        lb = nb + 1
-        rb = tree_b%right(nb)
-        g1 = gap2(na, lb)
-        g2 = gap2(na, rb)
-        n_box = n_box + 2
-        if (g1 <= g2) then
-          call push(na, rb, g2)
-          call push(na, lb, g1)
-        else
-          call push(na, lb, g1)
-          call push(na, rb, g2)
+    ! The hint's pair bounds the answer from above: searching only below a bound a little
+    ! larger (1e-12 relative, far above the rounding of any bound the traversal compares
+    ! with) prunes what cannot hold the minimum, while every pair at or below the hint's
+    ! distance is still visited in the same order and recorded as before: the answer is the
+    ! traversal's own first minimum, bitwise, ties included. Should the bound prune
+    ! everything after all, the search runs again without it.
+    hinted = .false.
+    if (present(hint) .and. cached) then
+      if (hint%kind /= FEATURE_NONE) then
+        g = hint_gap2(hint)
+        if (g > 0.0_dp .and. g*(1.0_dp + 1.0e-12_dp) < best2) then
+          best2 = g*(1.0_dp + 1.0e-12_dp)
+          hinted = .true.
         end if
       end if
-    end do
+    end if
+    call traverse()
+    if (hinted .and. best_kind == FEATURE_NONE) then
+      best2 = huge(1.0_dp)
+      if (present(upper_bound)) best2 = upper_bound**2
+      call traverse()
+    end if
 
     if (present(stats)) then
       stats%box_pairs = stats%box_pairs + n_box
       stats%leaf_pairs = stats%leaf_pairs + n_leaf
       stats%primitive_tests = stats%primitive_tests + n_prim
     end if
+    if (present(hint)) hint = feature_pair_t(best_kind, best_sa, best_ka, best_sb, best_kb)
     if (best_kind == FEATURE_NONE) then
       result%found = .false.
       result%distance = huge(1.0_dp)
@@ -286,6 +271,91 @@ contains
                        pa, pb, result)
 
   contains
+
+    !> Depth-first over box pairs from the roots, nearer child first, pruned by best2.
+    subroutine traverse()
+      integer :: na, nb, la, ra, lb, rb
+      real(dp) :: g, g1, g2
+      logical :: split_a
+      top = 1
+      stack_a(1) = 1
+      stack_b(1) = 1
+      stack_g(1) = gap2(1, 1)
+      do while (top > 0)
+        na = stack_a(top)
+        nb = stack_b(top)
+        g = stack_g(top)
+        top = top - 1
+        if (g >= best2) cycle
+        if (tree_a%right(na) == 0 .and. tree_b%right(nb) == 0) then
+          n_leaf = n_leaf + 1
+          call leaf_pair(na, nb)
+          cycle
+        end if
+        if (tree_a%right(na) == 0) then
+          split_a = .false.
+        else if (tree_b%right(nb) == 0) then
+          split_a = .true.
+        else
+          split_a = sum(tree_a%box(4:6, na)) >= sum(tree_b%box(4:6, nb))
+        end if
+        ! Push the farther child first so the nearer is explored first (tightens best2 early).
+        if (split_a) then
+          la = na + 1
+          ra = tree_a%right(na)
+          g1 = gap2(la, nb)
+          g2 = gap2(ra, nb)
+          n_box = n_box + 2
+          if (g1 <= g2) then
+            call push(ra, nb, g2)
+            call push(la, nb, g1)
+          else
+            call push(la, nb, g1)
+            call push(ra, nb, g2)
+          end if
+        else
+          lb = nb + 1
+          rb = tree_b%right(nb)
+          g1 = gap2(na, lb)
+          g2 = gap2(na, rb)
+          n_box = n_box + 2
+          if (g1 <= g2) then
+            call push(na, rb, g2)
+            call push(na, lb, g1)
+          else
+            call push(na, lb, g1)
+            call push(na, rb, g2)
+          end if
+        end if
+      end do
+    end subroutine traverse
+
+    !> The squared distance of the hint's primitive pair, computed as leaf_pair does (the
+    !> same B face in A's frame, the same test, the same arguments); 0 if it names no pair.
+    real(dp) function hint_gap2(h)
+      type(feature_pair_t), intent(in) :: h
+      integer :: region
+      real(dp) :: q(3), s, t, c1(3), c2(3)
+      hint_gap2 = 0.0_dp
+      if (h%sa < 1 .or. h%sa > tree_a%n_faces .or. h%sb < 1 .or. h%sb > tree_b%n_faces) return
+      if (h%ka < 0 .or. h%ka > 3 .or. h%kb < 0 .or. h%kb > 3) return
+      if (.not. slot_ready(h%sb)) then
+        call place_slot(h%sb, h%sb)
+        slot_ready(h%sb) = .true.
+      end if
+      n_prim = n_prim + 1
+      select case (h%kind)
+      case (FEATURE_VERTEX_FACE)
+        call closest_point_triangle(tree_a%tri(:, h%ka, h%sa), tb(:, 1, h%sb), tb(:, 2, h%sb), tb(:, 3, h%sb), q, &
+                                    region, hint_gap2)
+      case (FEATURE_EDGE_EDGE)
+        call closest_segment_segment(tree_a%tri(:, h%ka, h%sa), tree_a%tri(:, mod(h%ka, 3) + 1, h%sa), &
+                                     tb(:, h%kb, h%sb), tb(:, mod(h%kb, 3) + 1, h%sb), s, t, c1, c2, hint_gap2)
+      case (FEATURE_FACE_VERTEX)
+        call closest_point_triangle(tb(:, h%kb, h%sb), tree_a%tri(:, 1, h%sa), tree_a%tri(:, 2, h%sa), &
+                                    tree_a%tri(:, 3, h%sa), q, region, hint_gap2)
+      end select
+    end function hint_gap2
 
     !> box_gap2 of box ia of A and box ib of B at the current best2
     real(dp) function gap2(ia, ib)
