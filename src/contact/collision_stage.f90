@@ -41,6 +41,7 @@ module collision_stage
   use contact_material, only: material_table_t
   use quaternion, only: quat_rotate_inverse
   use sleeping, only: sleep_t
+  use gap_memo, only: gap_memo_t
   implicit none
   private
   public :: collision_stage_t, collision_stats_t, smallest_moving_extent, turning_reach, min_separation_for
@@ -85,6 +86,7 @@ module collision_stage
     type(resting_contact_t) :: resting        !< the contact pass of every step
     type(material_table_t) :: materials       !< restitution and friction per &body group
     type(sleep_t) :: sleep                    !< islands at rest held still until touched
+    type(gap_memo_t) :: memo                  !< each pair's last closest-point query (gap_memo)
     integer, allocatable :: band_pairs(:, :)  !< pairs with contact points in the band at the last pass
     integer :: n_band_pairs = 0
     ! The step's candidate pairs (prepare): from the grid with every body's travel over the
@@ -209,7 +211,7 @@ module collision_stage
     !> Time of contact of candidate pair k over [0, step] from time_now.
     module subroutine stage_advance_candidate(self, bodies, shapes, flight, gravity, config, time_now, k, step, &
                                               max_iterations, res)
-      class(collision_stage_t), intent(inout) :: self
+      class(collision_stage_t), intent(inout), target :: self
       type(bodies_t), intent(inout), target :: bodies
       type(shape_library_t), intent(in), target :: shapes
       type(free_flight_t), intent(inout), target :: flight

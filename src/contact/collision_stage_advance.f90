@@ -9,6 +9,7 @@ submodule (collision_stage) collision_stage_advance
   use impulse_solver, only: normal_velocity
   use pair_geometry, only: pair_gap, pair_contact_points
   use plane_bound, only: plane_safe_time
+  use gap_memo, only: gap_memo_t
   implicit none
 
   !> Closest points of one pair at time_now + t, with the poses the propagator will give.
@@ -16,6 +17,7 @@ submodule (collision_stage) collision_stage_advance
     type(free_flight_t), pointer :: flight => null()
     type(bodies_t), pointer :: bodies => null()
     type(shape_library_t), pointer :: shapes => null()
+    type(gap_memo_t), pointer :: memo => null()
     type(integrator_config_t) :: config
     integer :: i = 0, j = 0
     real(dp) :: time_now = 0.0_dp, gravity(3) = 0.0_dp
@@ -112,7 +114,7 @@ contains
   !> the local event loop computes for a pair whose certificate is due.
   module subroutine stage_advance_candidate(self, bodies, shapes, flight, gravity, config, time_now, k, step, &
                                             max_iterations, res)
-    class(collision_stage_t), intent(inout) :: self
+    class(collision_stage_t), intent(inout), target :: self
     type(bodies_t), intent(inout), target :: bodies
     type(shape_library_t), intent(in), target :: shapes
     type(free_flight_t), intent(inout), target :: flight
@@ -149,6 +151,7 @@ contains
     oracle%flight => flight
     oracle%bodies => bodies
     oracle%shapes => shapes
+    oracle%memo => self%memo
     oracle%config = config
     oracle%time_now = time_now
     oracle%gravity = gravity
@@ -247,7 +250,8 @@ contains
         bodies%w(:, pair(b)) = w_t
         bodies%v(:, pair(b)) = saved_v(:, b) + t*flight%acceleration(pair(b), gravity)
       end do
-      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
+      call self%memo%pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                              gap, normal)
       self%stats%pair_tests = self%stats%pair_tests + 1
       self%stats%min_separation = min(self%stats%min_separation, gap)
       if (gap <= 0.5_dp*self%target + self%tolerance) exit
@@ -351,7 +355,7 @@ contains
     real(dp) :: xi(3), qi(4), xj(3), qj(4)
     call self%flight%pose_at(self%bodies, self%i, self%time_now, t, self%gravity, self%config, xi, qi)
     call self%flight%pose_at(self%bodies, self%j, self%time_now, t, self%gravity, self%config, xj, qj)
-    call pair_gap(self%shapes, self%bodies, self%i, self%j, xi, qi, xj, qj, gap, normal)
+    call self%memo%pair_gap(self%shapes, self%bodies, self%i, self%j, xi, qi, xj, qj, gap, normal)
     self%min_gap = min(self%min_gap, gap)
   end subroutine oracle_gap_at
 

@@ -252,7 +252,8 @@ contains
       j = self%pairs(2, k)
       if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
       if (gap_lower_bound(shapes, bodies, i, j, band) > band) cycle
-      call pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), gap, normal)
+      call self%memo%pair_gap(shapes, bodies, i, j, bodies%x(:, i), bodies%q(:, i), bodies%x(:, j), bodies%q(:, j), &
+                              gap, normal)
       self%stats%min_separation = min(self%stats%min_separation, gap)
       if (gap > band) cycle
       first = n_contacts + 1

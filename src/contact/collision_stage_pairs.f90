@@ -30,6 +30,7 @@ contains
       smallest = smallest_moving_extent(shapes, bodies)
     end if
     self%target = min_separation_for(deck, smallest)
+    call self%memo%clear()
     if (smallest >= huge(1.0_dp)) smallest = 1.0_dp   ! nothing moves: any box will do
     ! The advancement stops within 10% of the minimum separation above it; contact points
     ! are all features within one minimum separation of the closest one.

@@ -6,7 +6,7 @@ module pair_geometry
   use kinds, only: dp, i8
   use shape, only: shape_library_t, SHAPE_SPHERE
   use body_state, only: bodies_t
-  use mesh_distance, only: distance_result_t, mesh_mesh_distance, sphere_mesh_distance
+  use mesh_distance, only: distance_result_t, mesh_mesh_distance, sphere_mesh_distance, feature_pair_t
   use contact_features, only: contact_feature_t, find_contact_features
   use impulse_solver, only: contact_t
   use quaternion, only: quat_rotate_inverse
@@ -37,12 +37,15 @@ contains
   end subroutine bounding_sphere_boxes
 
   !> Gap and unit normal (from i to j) between two posed bodies.
-  subroutine pair_gap(shapes, bodies, i, j, xi, qi, xj, qj, gap, normal)
+  !> hint: for two meshes, the primitive pair of an earlier query of i and j, which speeds
+  !> the search without changing its answer (mesh_mesh_distance); updated.
+  subroutine pair_gap(shapes, bodies, i, j, xi, qi, xj, qj, gap, normal, hint)
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: i, j
     real(dp), intent(in) :: xi(3), qi(4), xj(3), qj(4)
     real(dp), intent(out) :: gap, normal(3)
+    type(feature_pair_t), intent(inout), optional :: hint
     type(distance_result_t) :: d
     real(dp) :: between(3)
     associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
@@ -59,7 +62,7 @@ contains
         gap = d%distance
         normal = -d%normal
       else
-        call mesh_mesh_distance(si%tree, xi, qi, sj%tree, xj, qj, d)
+        call mesh_mesh_distance(si%tree, xi, qi, sj%tree, xj, qj, d, hint=hint)
         gap = d%distance
         normal = d%normal
       end if

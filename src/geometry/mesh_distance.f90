@@ -25,7 +25,7 @@ module mesh_distance
   use closest_primitives, only: closest_point_triangle, closest_segment_segment
   implicit none
   private
-  public :: distance_result_t, query_stats_t, relative_pose_t
+  public :: distance_result_t, query_stats_t, relative_pose_t, feature_pair_t
   public :: mesh_mesh_distance, mesh_mesh_distance_brute, sphere_sphere_distance, sphere_mesh_distance
   public :: make_relative_pose, box_gap2, point_box_gap2, edge_nodes
   public :: FEATURE_NONE, FEATURE_VERTEX_FACE, FEATURE_FACE_VERTEX, FEATURE_EDGE_EDGE, &
@@ -45,6 +45,11 @@ module mesh_distance
   !> trees are balanced (median splits), so 2 * 64 covers any mesh that fits in memory.
   integer, parameter :: STACK_SIZE = 128
 
+  !> A query keeps B's boxes and faces in A's frame, each transformed once, for trees up to
+  !> these sizes (boxes, faces; about 3 KB of stack): the small meshes of a gas or a pile (a
+  !> box has 15 boxes and 12 faces). Larger trees transform a box or a leaf at every visit.
+  integer, parameter :: CACHE_BOXES = 31, CACHE_SLOTS = 16
+
   type :: distance_result_t
     logical :: found = .false.            !< false: nothing closer than the upper bound
     real(dp) :: distance = huge(1.0_dp)   !< [m]; the upper bound when not found
@@ -55,6 +60,15 @@ module mesh_distance
     integer :: feature_a(2) = 0
     integer :: feature_b(2) = 0
   end type distance_result_t
+
+  !> The primitive pair (slots and corners of the two trees, FEATURE_* kind) that realised a
+  !> query's distance: a query of the same two trees at nearby poses (the next iterate of
+  !> conservative advancement) tests it first, so that its traversal starts with a bound
+  !> close to the answer and prunes most box pairs.
+  type :: feature_pair_t
+    integer :: kind = FEATURE_NONE
+    integer :: sa = 0, ka = 0, sb = 0, kb = 0
+  end type feature_pair_t
 
   !> Work counters; queries add to them (reset with stats = query_stats_t()).
   type :: query_stats_t
@@ -93,16 +107,38 @@ contains
     real(dp), intent(in) :: a(15), b(15)
     type(relative_pose_t), intent(in) :: rel
     real(dp), intent(in) :: cutoff
-    real(dp) :: c(3), v(3, 3), d(3), e(3), m(3, 3), am(3, 3), g(3), s1, s2, s3, len
+    real(dp) :: cb(3), vb(3, 3)
+    call transform_box(b, rel, cb, vb)
+    box_gap2 = box_gap2_posed(a, b, cb, vb, rel%slack, cutoff)
+  end function box_gap2
+
+  !> Box b's centre cb and axes vb (columns) in A's body frame. A query reaches each box of
+  !> B with several boxes of A: it transforms each once (the same arithmetic as before, so
+  !> the bounds are bitwise those of box_gap2).
+  pure subroutine transform_box(b, rel, cb, vb)
+    real(dp), intent(in) :: b(15)
+    type(relative_pose_t), intent(in) :: rel
+    real(dp), intent(out) :: cb(3), vb(3, 3)
     integer :: i, j
-    ! b's centre (relative to a's) and axes in A's body frame
     do i = 1, 3
-      c(i) = rel%r(i, 1)*b(1) + rel%r(i, 2)*b(2) + rel%r(i, 3)*b(3) + rel%t(i) - a(i)
+      cb(i) = rel%r(i, 1)*b(1) + rel%r(i, 2)*b(2) + rel%r(i, 3)*b(3) + rel%t(i)
     end do
     do j = 1, 3
       do i = 1, 3
-        v(i, j) = rel%r(i, 1)*b(3 + 3*j + 1) + rel%r(i, 2)*b(3 + 3*j + 2) + rel%r(i, 3)*b(3 + 3*j + 3)
+        vb(i, j) = rel%r(i, 1)*b(3 + 3*j + 1) + rel%r(i, 2)*b(3 + 3*j + 2) + rel%r(i, 3)*b(3 + 3*j + 3)
       end do
+    end do
+  end subroutine transform_box
+
+  !> box_gap2 with b's centre and axes already in A's frame (transform_box); b(4:6) are
+  !> still read for its half extents.
+  pure real(dp) function box_gap2_posed(a, b, cb, v, slack, cutoff)
+    real(dp), intent(in) :: a(15), b(15), cb(3), v(3, 3), slack, cutoff
+    real(dp) :: c(3), d(3), e(3), m(3, 3), am(3, 3), g(3), s1, s2, s3, len
+    integer :: i, j
+    ! b's centre relative to a's, in A's body frame
+    do i = 1, 3
+      c(i) = cb(i) - a(i)
     end do
     ! d: offset in a's box frame; e: offset along b's axes
     do i = 1, 3
@@ -114,11 +150,11 @@ contains
     s3 = 0.0_dp
     len = sqrt(c(1)*c(1) + c(2)*c(2) + c(3)*c(3))
     if (len > 0.0_dp) then
-      s3 = len - 2.0_dp*rel%slack - (a(4)*abs(d(1)) + a(5)*abs(d(2)) + a(6)*abs(d(3)) + &
-                                     b(4)*abs(e(1)) + b(5)*abs(e(2)) + b(6)*abs(e(3)))/len
+      s3 = len - 2.0_dp*slack - (a(4)*abs(d(1)) + a(5)*abs(d(2)) + a(6)*abs(d(3)) + &
+                                 b(4)*abs(e(1)) + b(5)*abs(e(2)) + b(6)*abs(e(3)))/len
       s3 = max(s3, 0.0_dp)**2
       if (s3 > cutoff) then
-        box_gap2 = s3
+        box_gap2_posed = s3
         return
       end if
     end if
@@ -130,16 +166,16 @@ contains
     end do
     am = abs(m)
     do i = 1, 3
-      g(i) = abs(d(i)) - a(3 + i) - rel%slack - (am(i, 1)*b(4) + am(i, 2)*b(5) + am(i, 3)*b(6))
+      g(i) = abs(d(i)) - a(3 + i) - slack - (am(i, 1)*b(4) + am(i, 2)*b(5) + am(i, 3)*b(6))
     end do
     s1 = max(g(1), 0.0_dp)**2 + max(g(2), 0.0_dp)**2 + max(g(3), 0.0_dp)**2
     ! in b's box frame the offset is -e
     do j = 1, 3
-      g(j) = abs(e(j)) - b(3 + j) - rel%slack - (am(1, j)*a(4) + am(2, j)*a(5) + am(3, j)*a(6))
+      g(j) = abs(e(j)) - b(3 + j) - slack - (am(1, j)*a(4) + am(2, j)*a(5) + am(3, j)*a(6))
     end do
     s2 = max(g(1), 0.0_dp)**2 + max(g(2), 0.0_dp)**2 + max(g(3), 0.0_dp)**2
-    box_gap2 = max(s1, s2, s3)
-  end function box_gap2
+    box_gap2_posed = max(s1, s2, s3)
+  end function box_gap2_posed
 
   pure real(dp) function sqdist3(x, y)
     real(dp), intent(in) :: x(3), y(3)
@@ -161,84 +197,70 @@ contains
   !> Distance and closest points between mesh bodies A and B at poses (xa, qa), (xb, qb).
   !> upper_bound [m]: only distances below it are searched for (result%found tells); use it
   !> when only "closer than" matters, e.g. for time of contact. stats, if given, is added to.
-  subroutine mesh_mesh_distance(tree_a, xa, qa, tree_b, xb, qb, result, stats, upper_bound)
+  !> hint: the pair of an earlier query of the same two trees (B trees within the cache
+  !> sizes only), whose distance now bounds the search; on return the pair found, or kind
+  !> FEATURE_NONE. The answer is bitwise the same with or without it (see below).
+  subroutine mesh_mesh_distance(tree_a, xa, qa, tree_b, xb, qb, result, stats, upper_bound, hint)
     type(skd_tree_t), intent(in) :: tree_a, tree_b
     real(dp), intent(in) :: xa(3), qa(4), xb(3), qb(4)
     type(distance_result_t), intent(out) :: result
     type(query_stats_t), intent(inout), optional :: stats
     real(dp), intent(in), optional :: upper_bound
+    type(feature_pair_t), intent(inout), optional :: hint
     type(relative_pose_t) :: rel
-    integer :: stack_a(STACK_SIZE), stack_b(STACK_SIZE), top, na, nb, la, ra, lb, rb
-    real(dp) :: stack_g(STACK_SIZE), best2, g, g1, g2
-    real(dp) :: tb(3, 3, LEAF_SIZE), nrm_b(3, LEAF_SIZE), pa(3), pb(3)
+    integer :: stack_a(STACK_SIZE), stack_b(STACK_SIZE), top
+    real(dp) :: stack_g(STACK_SIZE), best2, g
+    real(dp) :: pa(3), pb(3)
     integer :: best_kind, best_sa, best_sb, best_ka, best_kb
     integer(i8) :: n_box, n_leaf, n_prim
-    logical :: split_a
+    logical :: cached, hinted
+    ! B's boxes and faces in A's frame, each transformed once when first reached (a box of
+    ! B meets several of A's): for trees of up to CACHE_BOXES boxes, else per visit.
+    real(dp) :: cb(3, CACHE_BOXES), vb(3, 3, CACHE_BOXES)
+    logical :: box_ready(CACHE_BOXES), slot_ready(CACHE_SLOTS)
+    real(dp) :: tb(3, 3, CACHE_SLOTS), nrm_b(3, CACHE_SLOTS), mid_b(3, 3, CACHE_SLOTS)
 
     rel = make_relative_pose(tree_a%radius, xa, qa, tree_b%radius, xb, qb)
+    cached = tree_b%n_boxes <= CACHE_BOXES .and. tree_b%n_faces <= CACHE_SLOTS
+    if (cached) then
+      box_ready(1:tree_b%n_boxes) = .false.
+      slot_ready(1:tree_b%n_faces) = .false.
+    end if
     best2 = huge(1.0_dp)
     if (present(upper_bound)) best2 = upper_bound**2
     best_kind = FEATURE_NONE
     best_sa = 0; best_sb = 0; best_ka = 0; best_kb = 0
     pa = 0.0_dp; pb = 0.0_dp
     n_box = 1; n_leaf = 0; n_prim = 0
-    top = 1
-    stack_a(1) = 1
-    stack_b(1) = 1
-    stack_g(1) = box_gap2(tree_a%box(:, 1), tree_b%box(:, 1), rel, best2)
-    do while (top > 0)
-      na = stack_a(top)
-      nb = stack_b(top)
-      g = stack_g(top)
-      top = top - 1
-      if (g >= best2) cycle
-      if (tree_a%right(na) == 0 .and. tree_b%right(nb) == 0) then
-        n_leaf = n_leaf + 1
-        call leaf_pair(na, nb)
-        cycle
-      end if
-      if (tree_a%right(na) == 0) then
-        split_a = .false.
-      else if (tree_b%right(nb) == 0) then
-        split_a = .true.
-      else
-        split_a = sum(tree_a%box(4:6, na)) >= sum(tree_b%box(4:6, nb))
-      end if
-      ! Push the farther child first so the nearer is explored first (tightens best2 early).
-      if (split_a) then
-        la = na + 1
-        ra = tree_a%right(na)
-        g1 = box_gap2(tree_a%box(:, la), tree_b%box(:, nb), rel, best2)
-        g2 = box_gap2(tree_a%box(:, ra), tree_b%box(:, nb), rel, best2)
-        n_box = n_box + 2
-        if (g1 <= g2) then
-          call push(ra, nb, g2)
-          call push(la, nb, g1)
-        else
-          call push(la, nb, g1)
-          call push(ra, nb, g2)
-        end if
-      else
-        lb = nb + 1
-        rb = tree_b%right(nb)
-        g1 = box_gap2(tree_a%box(:, na), tree_b%box(:, lb), rel, best2)
-        g2 = box_gap2(tree_a%box(:, na), tree_b%box(:, rb), rel, best2)
-        n_box = n_box + 2
-        if (g1 <= g2) then
-          call push(na, rb, g2)
-          call push(na, lb, g1)
-        else
-          call push(na, lb, g1)
-          call push(na, rb, g2)
+    ! The hint's pair bounds the answer from above: searching only below a bound a little
+    ! larger (1e-12 relative, far above the rounding of any bound the traversal compares
+    ! with) prunes what cannot hold the minimum, while every pair at or below the hint's
+    ! distance is still visited in the same order and recorded as before: the answer is the
+    ! traversal's own first minimum, bitwise, ties included. Should the bound prune
+    ! everything after all, the search runs again without it.
+    hinted = .false.
+    if (present(hint) .and. cached) then
+      if (hint%kind /= FEATURE_NONE) then
+        g = hint_gap2(hint)
+        if (g > 0.0_dp .and. g*(1.0_dp + 1.0e-12_dp) < best2) then
+          best2 = g*(1.0_dp + 1.0e-12_dp)
+          hinted = .true.
         end if
       end if
-    end do
+    end if
+    call traverse()
+    if (hinted .and. best_kind == FEATURE_NONE) then
+      best2 = huge(1.0_dp)
+      if (present(upper_bound)) best2 = upper_bound**2
+      call traverse()
+    end if
 
     if (present(stats)) then
       stats%box_pairs = stats%box_pairs + n_box
       stats%leaf_pairs = stats%leaf_pairs + n_leaf
       stats%primitive_tests = stats%primitive_tests + n_prim
     end if
+    if (present(hint)) hint = feature_pair_t(best_kind, best_sa, best_ka, best_sb, best_kb)
     if (best_kind == FEATURE_NONE) then
       result%found = .false.
       result%distance = huge(1.0_dp)
@@ -250,6 +272,105 @@ contains
 
   contains
 
+    !> Depth-first over box pairs from the roots, nearer child first, pruned by best2.
+    subroutine traverse()
+      integer :: na, nb, la, ra, lb, rb
+      real(dp) :: g, g1, g2
+      logical :: split_a
+      top = 1
+      stack_a(1) = 1
+      stack_b(1) = 1
+      stack_g(1) = gap2(1, 1)
+      do while (top > 0)
+        na = stack_a(top)
+        nb = stack_b(top)
+        g = stack_g(top)
+        top = top - 1
+        if (g >= best2) cycle
+        if (tree_a%right(na) == 0 .and. tree_b%right(nb) == 0) then
+          n_leaf = n_leaf + 1
+          call leaf_pair(na, nb)
+          cycle
+        end if
+        if (tree_a%right(na) == 0) then
+          split_a = .false.
+        else if (tree_b%right(nb) == 0) then
+          split_a = .true.
+        else
+          split_a = sum(tree_a%box(4:6, na)) >= sum(tree_b%box(4:6, nb))
+        end if
+        ! Push the farther child first so the nearer is explored first (tightens best2 early).
+        if (split_a) then
+          la = na + 1
+          ra = tree_a%right(na)
+          g1 = gap2(la, nb)
+          g2 = gap2(ra, nb)
+          n_box = n_box + 2
+          if (g1 <= g2) then
+            call push(ra, nb, g2)
+            call push(la, nb, g1)
+          else
+            call push(la, nb, g1)
+            call push(ra, nb, g2)
+          end if
+        else
+          lb = nb + 1
+          rb = tree_b%right(nb)
+          g1 = gap2(na, lb)
+          g2 = gap2(na, rb)
+          n_box = n_box + 2
+          if (g1 <= g2) then
+            call push(na, rb, g2)
+            call push(na, lb, g1)
+          else
+            call push(na, lb, g1)
+            call push(na, rb, g2)
+          end if
+        end if
+      end do
+    end subroutine traverse
+
+    !> The squared distance of the hint's primitive pair, computed as leaf_pair does (the
+    !> same B face in A's frame, the same test, the same arguments); 0 if it names no pair.
+    real(dp) function hint_gap2(h)
+      type(feature_pair_t), intent(in) :: h
+      integer :: region
+      real(dp) :: q(3), s, t, c1(3), c2(3)
+      hint_gap2 = 0.0_dp
+      if (h%sa < 1 .or. h%sa > tree_a%n_faces .or. h%sb < 1 .or. h%sb > tree_b%n_faces) return
+      if (h%ka < 0 .or. h%ka > 3 .or. h%kb < 0 .or. h%kb > 3) return
+      if (.not. slot_ready(h%sb)) then
+        call place_slot(h%sb, h%sb)
+        slot_ready(h%sb) = .true.
+      end if
+      n_prim = n_prim + 1
+      select case (h%kind)
+      case (FEATURE_VERTEX_FACE)
+        call closest_point_triangle(tree_a%tri(:, h%ka, h%sa), tb(:, 1, h%sb), tb(:, 2, h%sb), tb(:, 3, h%sb), q, &
+                                    region, hint_gap2)
+      case (FEATURE_EDGE_EDGE)
+        call closest_segment_segment(tree_a%tri(:, h%ka, h%sa), tree_a%tri(:, mod(h%ka, 3) + 1, h%sa), &
+                                     tb(:, h%kb, h%sb), tb(:, mod(h%kb, 3) + 1, h%sb), s, t, c1, c2, hint_gap2)
+      case (FEATURE_FACE_VERTEX)
+        call closest_point_triangle(tb(:, h%kb, h%sb), tree_a%tri(:, 1, h%sa), tree_a%tri(:, 2, h%sa), &
+                                    tree_a%tri(:, 3, h%sa), q, region, hint_gap2)
+      end select
+    end function hint_gap2
+
+    !> box_gap2 of box ia of A and box ib of B at the current best2
+    real(dp) function gap2(ia, ib)
+      integer, intent(in) :: ia, ib
+      if (cached) then
+        if (.not. box_ready(ib)) then
+          call transform_box(tree_b%box(:, ib), rel, cb(:, ib), vb(:, :, ib))
+          box_ready(ib) = .true.
+        end if
+        gap2 = box_gap2_posed(tree_a%box(:, ia), tree_b%box(:, ib), cb(:, ib), vb(:, :, ib), rel%slack, best2)
+      else
+        gap2 = box_gap2(tree_a%box(:, ia), tree_b%box(:, ib), rel, best2)
+      end if
+    end function gap2
+
     subroutine push(ia, ib, gap)
       integer, intent(in) :: ia, ib
       real(dp), intent(in) :: gap
@@ -260,30 +381,47 @@ contains
       stack_g(top) = gap
     end subroutine push
 
+    !> B's face in slot sb in A's frame, into position j of tb, nrm_b, mid_b.
+    subroutine place_slot(sb, j)
+      integer, intent(in) :: sb, j
+      integer :: k
+      do k = 1, 3
+        tb(:, k, j) = matmul(rel%r, tree_b%tri(:, k, sb)) + rel%t
+      end do
+      nrm_b(:, j) = matmul(rel%r, tree_b%normal(:, sb))
+      do k = 1, 3
+        mid_b(:, k, j) = 0.5_dp*(tb(:, k, j) + tb(:, mod(k, 3) + 1, j))
+      end do
+    end subroutine place_slot
+
     subroutine leaf_pair(na, nb)
       integer, intent(in) :: na, nb
-      integer :: sa, sb, ka, kb, j, fa0, fa1, fb0, fb1, region
+      integer :: sa, sb, ka, kb, j, fa0, fa1, fb0, fb1, region, off
       real(dp) :: q(3), d2, s, t, c1(3), c2(3), h, mid_a(3), half_a, reach, reach_a
-      real(dp) :: mid_b(3, 3, LEAF_SIZE)
       fa0 = tree_a%first(na)
       fa1 = fa0 + tree_a%count(na) - 1
       fb0 = tree_b%first(nb)
       fb1 = fb0 + tree_b%count(nb) - 1
-      do sb = fb0, fb1
-        do j = 1, 3
-          tb(:, j, sb - fb0 + 1) = matmul(rel%r, tree_b%tri(:, j, sb)) + rel%t
+      ! B's faces of this leaf are at j = sb - off in tb, nrm_b, mid_b
+      if (cached) then
+        off = 0
+        do sb = fb0, fb1
+          if (slot_ready(sb)) cycle
+          call place_slot(sb, sb)
+          slot_ready(sb) = .true.
         end do
-        nrm_b(:, sb - fb0 + 1) = matmul(rel%r, tree_b%normal(:, sb))
-        do j = 1, 3
-          mid_b(:, j, sb - fb0 + 1) = 0.5_dp*(tb(:, j, sb - fb0 + 1) + tb(:, mod(j, 3) + 1, sb - fb0 + 1))
+      else
+        off = fb0 - 1
+        do sb = fb0, fb1
+          call place_slot(sb, sb - off)
         end do
-      end do
+      end if
       ! vertices of A against faces of B, edges of A against edges of B
       do sa = fa0, fa1
         do ka = 1, 3
           if (owns_vertex(tree_a%flags(sa), ka)) then
             do sb = fb0, fb1
-              j = sb - fb0 + 1
+              j = sb - off
               ! the distance to the face's plane is a lower bound: skip faces it rules out
               h = nrm_b(1, j)*(tree_a%tri(1, ka, sa) - tb(1, 1, j)) + nrm_b(2, j)*(tree_a%tri(2, ka, sa) - tb(2, 1, j)) + &
                   nrm_b(3, j)*(tree_a%tri(3, ka, sa) - tb(3, 1, j))
@@ -304,7 +442,7 @@ contains
             reach_a = huge(1.0_dp)
             if (best2 < huge(1.0_dp)) reach_a = (1.0_dp + 1.0e-12_dp)*sqrt(best2) + half_a
             do sb = fb0, fb1
-              j = sb - fb0 + 1
+              j = sb - off
               do kb = 1, 3
                 if (.not. owns_edge(tree_b%flags(sb), kb)) cycle
                 ! Two segments are at least |c_a - c_b| - r_a - r_b apart (centres, half
@@ -330,7 +468,7 @@ contains
       end do
       ! vertices of B against faces of A
       do sb = fb0, fb1
-        j = sb - fb0 + 1
+        j = sb - off
         do kb = 1, 3
           if (.not. owns_vertex(tree_b%flags(sb), kb)) cycle
           do sa = fa0, fa1

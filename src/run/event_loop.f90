@@ -637,7 +637,8 @@ contains
       gap = self%pairs%gap(slot)
       normal = self%pairs%normal(:, slot)
     else
-      call pair_gap(shapes, bodies, a, b, bodies%x(:, a), bodies%q(:, a), bodies%x(:, b), bodies%q(:, b), gap, normal)
+      call stage%memo%pair_gap(shapes, bodies, a, b, bodies%x(:, a), bodies%q(:, a), bodies%x(:, b), bodies%q(:, b), &
+                               gap, normal)
       stage%stats%pair_tests = stage%stats%pair_tests + 1
       stage%stats%min_separation = min(stage%stats%min_separation, gap)
     end if
@@ -953,9 +954,9 @@ contains
           call sync(self, bodies, flight, m, t)
           call far_bound(self, shapes, bodies, flight, i, m, self%band, lb, dt)
           if (lb <= self%band .and. .not. (bodies%fixed(i) .and. bodies%fixed(m))) then
-            call pair_gap(shapes, bodies, self%pairs%a(q), self%pairs%b(q), bodies%x(:, self%pairs%a(q)), &
-                          bodies%q(:, self%pairs%a(q)), bodies%x(:, self%pairs%b(q)), bodies%q(:, self%pairs%b(q)), &
-                          gap, normal)
+            call stage%memo%pair_gap(shapes, bodies, self%pairs%a(q), self%pairs%b(q), bodies%x(:, self%pairs%a(q)), &
+                                     bodies%q(:, self%pairs%a(q)), bodies%x(:, self%pairs%b(q)), &
+                                     bodies%q(:, self%pairs%b(q)), gap, normal)
             stage%stats%pair_tests = stage%stats%pair_tests + 1
             if (gap <= self%band) then
               call push(contact_slots, n_contact, q)
@@ -1177,9 +1178,9 @@ contains
             self%pairs%far(q) = .true.
             self%pairs%gap(q) = lb
           else
-            call pair_gap(shapes, bodies, self%pairs%a(q), self%pairs%b(q), bodies%x(:, self%pairs%a(q)), &
-                          bodies%q(:, self%pairs%a(q)), bodies%x(:, self%pairs%b(q)), bodies%q(:, self%pairs%b(q)), &
-                          gap, normal)
+            call stage%memo%pair_gap(shapes, bodies, self%pairs%a(q), self%pairs%b(q), bodies%x(:, self%pairs%a(q)), &
+                                     bodies%q(:, self%pairs%a(q)), bodies%x(:, self%pairs%b(q)), &
+                                     bodies%q(:, self%pairs%b(q)), gap, normal)
             stage%stats%pair_tests = stage%stats%pair_tests + 1
             stage%stats%min_separation = min(stage%stats%min_separation, gap)
             self%pairs%far(q) = .false.
