@@ -13,7 +13,7 @@ module simulation
   use body_state, only: bodies_t, copy_row
   use body_builder, only: build_shapes, build_bodies, count_bodies
   use ownership, only: contact_possible
-  use domain, only: domain_t, suggest_dims
+  use domain, only: domain_t, box_range_t, suggest_dims
   use migration, only: migrate_bodies, migration_stats_t
   use gid_blocks, only: gather_gid_blocks
   use restart_check, only: check_restored_state, check_same_bodies, compare_decks, deck_change_t
@@ -287,31 +287,55 @@ contains
     owned%n_ghost = 0
   end subroutine take_brick
 
-  !> The length of the next window [s]: the longest time in which no body can move more than
-  !> 0.9 grid box (|v| tau + |a| tau^2/2 with its velocity now and its acceleration), so
-  !> that at the window's end every body is at most one brick away from its owner (bricks
-  !> are at least two boxes wide) and migration needs only the neighbours. The smallest over
-  !> every rank (collective).
+  !> The length of the next window [s]: the longest time in which no body can reach a brick
+  !> two bricks away from its owner's along any axis, so that at the window's end every body
+  !> is in its owner's brick or a face, edge or corner neighbour's and migration needs only
+  !> the neighbours. Along each axis a body has the room from its position to the far face
+  !> of the neighbouring brick on either side (none beyond the rank grid: a body there stays
+  !> in the edge brick), 0.9 of it for round-off; it covers at most |v_k| tau + |a_k| tau^2/2
+  !> (velocity now, from the anchor, and gravity or its load). The global loop ends a window
+  !> at the first step end past it, and a step moves a body at most one grid box more: one
+  !> box less room. The smallest over every rank (collective).
   real(dp) function motion_window(self, par) result(window)
     type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
-    real(dp) :: reach, speed, accel, v(3), tau
-    integer :: i
-    reach = 0.9_dp*self%collisions%box_size
+    real(dp) :: v(3), a(3), room, below, above, tau, h
+    type(box_range_t) :: lower_brick(3), upper_brick(3)
+    logical :: has_lower(3), has_upper(3)
+    integer :: i, k, c(3)
+    h = self%dom%h
+    do k = 1, 3
+      c = self%dom%coords
+      c(k) = c(k) - 1
+      has_lower(k) = c(k) >= 0
+      if (has_lower(k)) lower_brick(k) = self%dom%brick(self%dom%rank_of(c))
+      c = self%dom%coords
+      c(k) = c(k) + 1
+      has_upper(k) = c(k) < self%dom%dims(k)
+      if (has_upper(k)) upper_brick(k) = self%dom%brick(self%dom%rank_of(c))
+    end do
     window = huge(1.0_dp)
     do i = 1, self%bodies%n_owned
       if (self%bodies%fixed(i)) cycle
-      accel = norm2(self%propagator%acceleration(i, self%deck%run%gravity))
+      a = self%propagator%acceleration(i, self%deck%run%gravity)
       if (self%local .and. self%propagator%is_anchored(i)) then
-        v = self%propagator%v0(:, i) + (self%time - self%propagator%t0(i))* &
-            self%propagator%acceleration(i, self%deck%run%gravity)
+        v = self%propagator%v0(:, i) + (self%time - self%propagator%t0(i))*a
       else
         v = self%bodies%v(:, i)
       end if
-      speed = norm2(v)
-      ! the positive root of speed tau + accel tau^2/2 = reach, without cancellation
-      tau = 2.0_dp*reach/(speed + sqrt(speed*speed + 2.0_dp*accel*reach))
-      window = min(window, tau)
+      do k = 1, 3
+        below = huge(1.0_dp)
+        above = huge(1.0_dp)
+        if (has_lower(k)) below = self%bodies%x(k, i) - real(lower_brick(k)%lo(k), dp)*h
+        if (has_upper(k)) above = real(upper_brick(k)%hi(k) + 1, dp)*h - self%bodies%x(k, i)
+        room = 0.9_dp*min(below, above)
+        if (room >= huge(1.0_dp)*0.5_dp) cycle
+        if (.not. self%local) room = room - h
+        room = max(room, 0.0_dp)
+        ! the positive root of |v_k| tau + |a_k| tau^2/2 = room, without cancellation
+        tau = 2.0_dp*room/max(abs(v(k)) + sqrt(v(k)*v(k) + 2.0_dp*abs(a(k))*room), tiny(1.0_dp))
+        window = min(window, tau)
+      end do
     end do
     window = par%min(window)
   end function motion_window

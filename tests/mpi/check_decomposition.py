@@ -130,6 +130,24 @@ for dims, expect in (("4, 1, 1", True), ("3, 0, 0", False)):
         c.check(proc.returncode != 0 and "&parallel: dims = 3, 0, 0 on 4 ranks" in proc.stderr,
                 f"&parallel dims = {dims} on 4 ranks: an error naming the group ({proc.stderr[-300:]})")
 
+# The global loop (Newmark rotation, global steps) migrates at step ends: 1 rank against
+# 4 x 1 x 1 bricks.
+newmark = {}
+for ranks, extra in ((1, ""), (4, "&parallel dims = 4, 1, 1 /\n")):
+    copy = os.path.join(work, f"newmark_{ranks}.nml")
+    with open(copy, "w") as f:
+        f.write(text + "\n&integrator rotation = 'newmark', events = 'global' /\n" + extra)
+    out = os.path.join(work, f"newmark_{ranks}")
+    shutil.rmtree(out, ignore_errors=True)
+    proc = subprocess.run([mpiexec, "-n", str(ranks), *flags, exe, copy, "--output-dir", out], capture_output=True,
+                          text=True)
+    c.check(proc.returncode == 0, f"newmark on {ranks} rank(s): {proc.stderr[-300:]}")
+    newmark[ranks] = (out, proc.stdout)
+moved = [l for l in newmark[4][1].splitlines() if "ended by a migration" in l]
+c.check(bool(moved) and " 0 bodies changed rank" not in moved[0], f"newmark on 4 ranks: bodies changed rank ({moved})")
+same_frames(newmark[1][0], newmark[4][0], "newmark, 1 vs 4 ranks")
+same_history(newmark[1][0], newmark[4][0], "newmark, 1 vs 4 ranks")
+
 # Restarts across rank counts: 4 -> 2, 4 -> 1 and 1 -> 4 from the first checkpoint.
 for written, continued in ((4, 2), (4, 1), (1, 4)):
     what = f"checkpoint written on {written}, continued on {continued}"
