@@ -27,7 +27,7 @@
 module collision_stage
   use kinds, only: dp, i8
   use error_status, only: error_t
-  use input_config, only: deck_t, integrator_config_t
+  use input_config, only: contact_config_t, run_config_t, integrator_config_t
   use shape, only: shape_library_t, SHAPE_SPHERE
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
@@ -128,10 +128,16 @@ module collision_stage
   ! The jobs' procedures (docs/contact.md, "One step"), each in its submodule's file.
   interface
     ! collision_stage_pairs.f90
-    !> Tolerances from the deck and the grid box from the smallest moving body.
-    module subroutine stage_init(self, deck, shapes, bodies, err, smallest_extent)
+    !> Tolerances from the deck's &contact and &run (auto values relative to the smallest
+    !> body), the pair materials (built by the caller from the &body groups) and the grid box
+    !> size from the smallest moving body. source: the deck, named in messages.
+    !> smallest_extent: smallest_moving_extent over every rank [m] (default: this rank's).
+    module subroutine stage_init(self, contact, run, materials, source, shapes, bodies, err, smallest_extent)
       class(collision_stage_t), intent(inout) :: self
-      type(deck_t), intent(in) :: deck
+      type(contact_config_t), intent(in) :: contact
+      type(run_config_t), intent(in) :: run
+      type(material_table_t), intent(in) :: materials
+      character(len=*), intent(in) :: source
       type(shape_library_t), intent(in) :: shapes
       type(bodies_t), intent(in) :: bodies
       type(error_t), intent(inout) :: err
@@ -275,10 +281,10 @@ contains
 
   !> The minimum separation of a run [m]: the deck's, or auto, 1e-4 of smallest (the
   !> smallest moving body's extent over every rank [m]; huge() when nothing moves).
-  pure real(dp) function min_separation_for(deck, smallest) result(target)
-    type(deck_t), intent(in) :: deck
+  pure real(dp) function min_separation_for(contact, smallest) result(target)
+    type(contact_config_t), intent(in) :: contact
     real(dp), intent(in) :: smallest
-    target = deck%contact%min_separation
+    target = contact%min_separation
     if (target <= 0.0_dp) then
       if (smallest >= huge(1.0_dp)) then
         target = 1.0e-4_dp   ! nothing moves: the box of 1 m below

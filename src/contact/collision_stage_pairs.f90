@@ -13,12 +13,12 @@ submodule (collision_stage) collision_stage_pairs
 
 contains
 
-  !> Tolerances from the deck (auto values relative to the smallest body) and the grid box
-  !> size from the smallest moving body.
-  !> smallest_extent: smallest_moving_extent over every rank [m] (default: this rank's).
-  module subroutine stage_init(self, deck, shapes, bodies, err, smallest_extent)
+  module subroutine stage_init(self, contact, run, materials, source, shapes, bodies, err, smallest_extent)
     class(collision_stage_t), intent(inout) :: self
-    type(deck_t), intent(in) :: deck
+    type(contact_config_t), intent(in) :: contact
+    type(run_config_t), intent(in) :: run
+    type(material_table_t), intent(in) :: materials
+    character(len=*), intent(in) :: source
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
     type(error_t), intent(inout) :: err
@@ -29,7 +29,7 @@ contains
     else
       smallest = smallest_moving_extent(shapes, bodies)
     end if
-    self%target = min_separation_for(deck, smallest)
+    self%target = min_separation_for(contact, smallest)
     call self%memo%clear()
     if (smallest >= huge(1.0_dp)) smallest = 1.0_dp   ! nothing moves: any box will do
     ! The advancement stops within 10% of the minimum separation above it; contact points
@@ -39,18 +39,18 @@ contains
     self%velocity_tolerance = 1.0e-9_dp
     ! Below this approach speed an impact is inelastic (docs/contact.md, "Resting contact"):
     ! the speed gravity adds in two steps, or the speed of a fall through the separation.
-    if (deck%contact%rest_speed >= 0.0_dp) then
-      self%rest_speed = deck%contact%rest_speed
+    if (contact%rest_speed >= 0.0_dp) then
+      self%rest_speed = contact%rest_speed
     else
-      self%rest_speed = max(2.0_dp*norm2(deck%run%gravity)*deck%run%dt_max, &
-                            sqrt(2.0_dp*norm2(deck%run%gravity)*self%target))
+      self%rest_speed = max(2.0_dp*norm2(run%gravity)*run%dt_max, &
+                            sqrt(2.0_dp*norm2(run%gravity)*self%target))
     end if
-    call self%materials%init(deck)
+    self%materials = materials
     ! Sleeping (docs/contact.md): auto speed 1% of the rest speed, so off without gravity.
-    if (deck%contact%sleep_speed >= 0.0_dp) then
-      call self%sleep%init(bodies%n_owned + bodies%n_ghost, deck%contact%sleep_speed, deck%contact%sleep_time)
+    if (contact%sleep_speed >= 0.0_dp) then
+      call self%sleep%init(bodies%n_owned + bodies%n_ghost, contact%sleep_speed, contact%sleep_time)
     else
-      call self%sleep%init(bodies%n_owned + bodies%n_ghost, 1.0e-2_dp*self%rest_speed, deck%contact%sleep_time)
+      call self%sleep%init(bodies%n_owned + bodies%n_ghost, 1.0e-2_dp*self%rest_speed, contact%sleep_time)
     end if
     self%settle_speed = max(self%velocity_tolerance, 1.0e-3_dp*self%rest_speed)
     self%resting%velocity_tolerance = self%velocity_tolerance
@@ -59,7 +59,7 @@ contains
     ! Each step keeps every body's travel plus the contact band within one grid box
     ! (limit_step): a band of half a box or more leaves no room to move.
     if (self%target + self%tolerance >= 0.5_dp*self%box_size) then
-      call err%set(ERR_INPUT, deck%path//': &contact: min_separation = '//str(self%target, '(es10.3)')// &
+      call err%set(ERR_INPUT, source//': &contact: min_separation = '//str(self%target, '(es10.3)')// &
                    ' m is too large for the smallest moving body (extent '//str(smallest, '(es10.3)')// &
                    ' m): it must stay below '//str(0.5_dp*self%box_size/1.1_dp, '(es10.3)')// &
                    ' m, and well below that for accurate contact')

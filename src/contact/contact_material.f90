@@ -13,7 +13,7 @@
 !> Fixed bodies (floors, walls) have materials like any other body.
 module contact_material
   use kinds, only: dp
-  use input_config, only: deck_t, RULE_MIN, RULE_MAX, RULE_MEAN, RULE_GEOMETRIC
+  use input_config, only: contact_config_t, RULE_MIN, RULE_MAX, RULE_MEAN, RULE_GEOMETRIC
   implicit none
   private
   public :: combined_restitution, combined_friction, material_table_t
@@ -110,29 +110,30 @@ contains
     end select
   end function combine_code
 
-  !> One entry per &body group of the validated deck: the group's own restitution and
-  !> friction, or the &contact value where the group gives -1 (the default).
-  subroutine init(self, deck)
+  !> One entry per &body group of a validated deck: the group's own restitution and
+  !> friction (group_restitution(k), group_friction(k): the &body values), or the &contact
+  !> value where the group gives -1 (the default).
+  subroutine init(self, contact, group_restitution, group_friction)
     class(material_table_t), intent(inout) :: self
-    type(deck_t), intent(in) :: deck
+    type(contact_config_t), intent(in) :: contact
+    real(dp), intent(in) :: group_restitution(:), group_friction(:)
     integer :: k, n
     call self%free()
-    self%restitution_rule = rule_code(deck%contact%restitution_rule)
-    self%friction_rule = rule_code(deck%contact%friction_rule)
-    n = 0
-    if (allocated(deck%bodies)) n = deck%n_bodies
+    self%restitution_rule = rule_code(contact%restitution_rule)
+    self%friction_rule = rule_code(contact%friction_rule)
+    n = size(group_restitution)
     allocate (self%restitution(n), self%friction(n))
     do k = 1, n
       ! The reader allows only -1 or a valid value, so any negative value means "unset".
-      if (deck%bodies(k)%restitution >= 0.0_dp) then
-        self%restitution(k) = deck%bodies(k)%restitution
+      if (group_restitution(k) >= 0.0_dp) then
+        self%restitution(k) = group_restitution(k)
       else
-        self%restitution(k) = deck%contact%restitution
+        self%restitution(k) = contact%restitution
       end if
-      if (deck%bodies(k)%friction >= 0.0_dp) then
-        self%friction(k) = deck%bodies(k)%friction
+      if (group_friction(k) >= 0.0_dp) then
+        self%friction(k) = group_friction(k)
       else
-        self%friction(k) = deck%contact%friction
+        self%friction(k) = contact%friction
       end if
     end do
   end subroutine init

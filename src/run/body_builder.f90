@@ -18,11 +18,26 @@ module body_builder
   use mass_properties, only: inertia_defect
   use input_config, only: deck_t, body_spec_t
   use body_state, only: bodies_t
+  use contact_material, only: material_table_t
   implicit none
   private
-  public :: build_shapes, build_bodies, count_bodies
+  public :: build_shapes, build_bodies, count_bodies, build_materials
 
 contains
+
+  !> The pair materials of a deck: restitution and friction per &body group, -1 (unset)
+  !> meaning the &contact value.
+  subroutine build_materials(deck, materials)
+    type(deck_t), intent(in) :: deck
+    type(material_table_t), intent(out) :: materials
+    real(dp), allocatable :: restitution(:), friction(:)
+    allocate (restitution(0), friction(0))
+    if (allocated(deck%bodies)) then
+      restitution = deck%bodies(1:deck%n_bodies)%restitution
+      friction = deck%bodies(1:deck%n_bodies)%friction
+    end if
+    call materials%init(deck%contact, restitution, friction)
+  end subroutine build_materials
 
   !> Total number of bodies the deck describes (all lattice copies of all groups).
   pure integer(i8) function count_bodies(deck)

@@ -16,7 +16,8 @@ module simulation
   use input_config, only: deck_t, EVENTS_LOCAL, EVENTS_GLOBAL, ROTATION_EXACT
   use shape, only: shape_library_t
   use body_state, only: bodies_t, copy_row
-  use body_builder, only: build_shapes, build_bodies, count_bodies
+  use body_builder, only: build_shapes, build_bodies, count_bodies, build_materials
+  use contact_material, only: material_table_t
   use ownership, only: contact_possible
   use domain, only: domain_t, box_range_t, suggest_dims
   use migration, only: migrate_bodies, migration_stats_t
@@ -224,6 +225,7 @@ contains
     type(error_t), intent(inout) :: err
     integer, allocatable :: shape_of_group(:)
     type(bodies_t) :: everyone
+    type(material_table_t) :: materials
     type(checkpoint_meta_t) :: meta
     integer(i8) :: first, last, pair(2)
     logical :: contacts
@@ -256,13 +258,14 @@ contains
     end if
     ! (at a restart too: the bodies may have gone far from the origin since the start)
     call check_position_resolution(deck, self%shapes, everyone, &
-                                   min_separation_for(deck, smallest_moving_extent(self%shapes, everyone)), &
+                                   min_separation_for(deck%contact, smallest_moving_extent(self%shapes, everyone)), &
                                    deck%contact%min_separation <= 0.0_dp, err)
     if (err%failed()) return
     ! One grid box size and one auto minimum separation for every rank: from the smallest
     ! moving body of all (every rank holds every body here); per-body tables are sized
     ! for all of them, so that migration never outgrows them.
-    call self%collisions%init(deck, self%shapes, everyone, err)
+    call build_materials(deck, materials)
+    call self%collisions%init(deck%contact, deck%run, materials, deck%path, self%shapes, everyone, err)
     if (err%failed()) return
     ! Owners: the bricks of a domain decomposition when no two bodies can interact before
     ! t_end, otherwise every body on rank 0 (contacts across ranks are not built yet).

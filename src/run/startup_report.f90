@@ -12,7 +12,8 @@ module startup_report
   use shape, only: shape_library_t
   use body_state, only: bodies_t
   use body_labels, only: body_label
-  use body_builder, only: build_shapes, build_bodies, count_bodies
+  use body_builder, only: build_shapes, build_bodies, count_bodies, build_materials
+  use contact_material, only: material_table_t
   use overlap_check, only: check_initial_overlaps, nearby_pairs
   use resolution_check, only: check_position_resolution
   use collision_stage, only: collision_stage_t, smallest_moving_extent
@@ -35,6 +36,7 @@ contains
     type(shape_library_t) :: shapes
     type(bodies_t) :: bodies
     type(collision_stage_t) :: collisions
+    type(material_table_t) :: materials
     integer, allocatable :: shape_of_group(:)
     integer :: i, pair(2)
     real(dp) :: gap, reach
@@ -47,7 +49,9 @@ contains
     call check_initial_overlaps(deck, shapes, bodies, err)
     if (err%failed()) return
     ! The grid box and the minimum separation are checked against the bodies here.
-    call collisions%init(deck, shapes, bodies, err, smallest_extent=smallest_moving_extent(shapes, bodies))
+    call build_materials(deck, materials)
+    call collisions%init(deck%contact, deck%run, materials, deck%path, shapes, bodies, err, &
+                         smallest_extent=smallest_moving_extent(shapes, bodies))
     if (err%failed()) return
     call check_position_resolution(deck, shapes, bodies, collisions%target, deck%contact%min_separation <= 0.0_dp, err)
     if (err%failed()) return

@@ -60,7 +60,7 @@ program test_contact_material
   deck%bodies(3)%friction = 1.0_dp
   call check(deck%bodies(4)%restitution == -1.0_dp .and. deck%bodies(4)%friction == -1.0_dp, &
              'body_spec_t material defaults are -1 (the &contact value)')
-  call table%init(deck)
+  call table%init(deck%contact, deck%bodies%restitution, deck%bodies%friction)
   call check(size(table%restitution) == 4 .and. size(table%friction) == 4, 'one entry per &body group')
   call check(all(table%restitution == [0.2_dp, 0.9_dp, 0.6_dp, 0.6_dp]), 'restitution per group, -1 -> &contact''s')
   call check(all(table%friction == [0.0_dp, 0.25_dp, 1.0_dp, 0.25_dp]), 'friction per group, -1 -> &contact''s')
@@ -98,12 +98,12 @@ program test_contact_material
   ! The table applies &contact's rules.
   deck%contact%restitution_rule = RULE_MAX
   deck%contact%friction_rule = RULE_MIN
-  call table%init(deck)
+  call table%init(deck%contact, deck%bodies%restitution, deck%bodies%friction)
   call check(table%pair_restitution(1, 2) == 0.9_dp, 'table, restitution_rule max: floor 0.2, group 2 0.9 -> 0.9')
   call check(table%pair_friction(3, 4) == 0.25_dp, 'table, friction_rule min: 1.0 and 0.25 -> 0.25')
   deck%contact%restitution_rule = RULE_MEAN
   deck%contact%friction_rule = RULE_MEAN
-  call table%init(deck)
+  call table%init(deck%contact, deck%bodies%restitution, deck%bodies%friction)
   call check_close(table%pair_restitution(1, 2), 0.55_dp, tol, 'table, restitution_rule mean: (0.2 + 0.9)/2')
   call check(table%pair_friction(3, 4) == 0.625_dp, 'table, friction_rule mean: (1.0 + 0.25)/2')
   deck%contact%restitution_rule = RULE_MIN
@@ -111,7 +111,7 @@ program test_contact_material
 
   ! Re-initialising replaces the table (a restart builds it again).
   deck%bodies(2)%restitution = -1.0_dp
-  call table%init(deck)
+  call table%init(deck%contact, deck%bodies%restitution, deck%bodies%friction)
   call check(table%restitution(2) == 0.6_dp, 'init again: group 2 now takes &contact''s e')
   call table%free()
   call check(.not. allocated(table%restitution) .and. .not. allocated(table%friction), 'free deallocates')
