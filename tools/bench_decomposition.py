@@ -30,7 +30,7 @@ import time
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 
 
-def deck_text(n, t_end):
+def deck_text(n, t_end, speed):
     # about n bodies: two lattices of 4k x 2k x k (spacing 0.3 m, x the longest axis, so
     # bricks are cut across x first), spheres and boxes interleaved
     k = max(1, round((n / 16) ** (1 / 3)))
@@ -48,12 +48,12 @@ def deck_text(n, t_end):
 &body
   name = 'balls', shape = 'sphere', radius = 0.05, density = 1000.0
   copies = {nx}, {ny}, {nz}, spacing = 0.3, 0.3, 0.3, position = 0.0, 0.0, 0.0
-  velocity = 3.0, 1.0, 0.5, angular_velocity = 1.0, 2.0, 3.0
+  velocity = {3.0 * speed}, {1.0 * speed}, {0.5 * speed}, angular_velocity = 1.0, 2.0, 3.0
 /
 &body
   name = 'boxes', shape = 'box', size = 0.1, 0.06, 0.04, density = 1000.0
   copies = {nx}, {ny}, {nz}, spacing = 0.3, 0.3, 0.3, position = 0.15, 0.15, 0.15
-  velocity = 3.0, 1.0, 0.5, angular_velocity = 4.0, 0.5, 2.0
+  velocity = {3.0 * speed}, {1.0 * speed}, {0.5 * speed}, angular_velocity = 4.0, 0.5, 2.0
   seed = 5, jitter_angle = 1.0
 /
 """, 2 * nx * ny * nz
@@ -88,17 +88,18 @@ def main():
     ap.add_argument("--n", type=int, nargs="+", default=[10000, 100000])
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 4])
     ap.add_argument("--t-end", type=float, default=0.5)
+    ap.add_argument("--speed", type=float, default=1.0, help="velocity (3, 1, 0.5) m/s times this")
     ap.add_argument("--exe", default=os.path.join(ROOT, "build", "app", "ricochet"))
     ap.add_argument("--out", default=os.path.join(ROOT, "docs", "bench", "decomposition_windows.md"))
     args = ap.parse_args()
     work = tempfile.mkdtemp(prefix="ricochet_decomp_")
     lines = ["# Domain decomposition: cost per window (tools/bench_decomposition.py)", "",
              f"Machine: {platform.node()} ({os.cpu_count()} cores), {time.strftime('%Y-%m-%d')}; "
-             f"t_end = {args.t_end} s, no frames. Stepping wall from the end-of-run summary.", "",
+             f"t_end = {args.t_end} s, lattice velocity ({3 * args.speed:g}, {args.speed:g}, {0.5 * args.speed:g}) m/s, no frames. Stepping wall from the end-of-run summary.", "",
              "| bodies | ranks | bricks | process [s] | run wall [s] | windows | bodies migrated | messages | bytes | per window [ms] |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for n in args.n:
-        text, n_bodies = deck_text(n, args.t_end)
+        text, n_bodies = deck_text(n, args.t_end, args.speed)
         deck = os.path.join(work, f"free_{n}.nml")
         with open(deck, "w") as f:
             f.write(text)

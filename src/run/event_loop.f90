@@ -91,6 +91,13 @@ module event_loop
     integer, allocatable :: pair_mark(:)         !< per pair slot: scratch stamps
     integer :: stamp = 0
     integer :: zero_impacts = 0                  !< consecutive impacts that changed nothing
+    !> The last impact (pair by global ids, time) and how many times in a row it came again
+    !> at that same time: a pair that an island's pass leaves approaching inside the band
+    !> is found in contact again at once (a livelock the zero_impacts guard does not see,
+    !> since each impulse does change the velocities the pass then changes back)
+    integer(i8) :: last_impact_pair(2) = 0
+    real(dp) :: last_impact_time = -1.0_dp
+    integer :: repeated_impacts = 0
     type(event_stats_t) :: stats
     integer, allocatable :: found(:)
   contains
@@ -161,6 +168,8 @@ contains
     self%mark = 0
     self%stamp = 0
     self%zero_impacts = 0
+    self%repeated_impacts = 0
+    self%last_impact_time = -1.0_dp
     call self%pairs%init(n, 8*n)
     if (allocated(self%pair_mark)) deallocate (self%pair_mark)
     allocate (self%pair_mark(0))
@@ -844,6 +853,34 @@ contains
     end select
   end subroutine pair_event
 
+  !> The same pair in contact again and again at one time: after max_repeated_impacts an
+  !> error naming it (a run that stops with a message, never one that hangs). Known cause
+  !> (docs/contact.md, "Known limits"): a pair between the settling floor and the floor plus
+  !> the tolerance that its island's contact pass leaves approaching.
+  subroutine check_repeated_impact(self, bodies, stage, slot, t, err)
+    type(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(collision_stage_t), intent(in) :: stage
+    integer, intent(in) :: slot
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer, parameter :: max_repeated_impacts = 50
+    integer(i8) :: pair(2)
+    pair = [bodies%gid(self%pairs%a(slot)), bodies%gid(self%pairs%b(slot))]
+    if (t == self%last_impact_time .and. all(pair == self%last_impact_pair)) then
+      self%repeated_impacts = self%repeated_impacts + 1
+    else
+      self%repeated_impacts = 0
+      self%last_impact_time = t
+      self%last_impact_pair = pair
+    end if
+    if (self%repeated_impacts < max_repeated_impacts) return
+    call err%set(ERR_NUMERIC, 'collision loop stalled: bodies '//str(pair(1))//' and '//str(pair(2))//' came into '// &
+                 'contact '//str(max_repeated_impacts)//' times in a row at t = '//str(t)//' s (gap '// &
+                 str(self%pairs%gap(slot), '(es10.3)')//' m, min_separation '//str(stage%target, '(es10.3)')// &
+                 ' m): the contact pass of their island leaves them approaching (docs/contact.md, "Known limits")')
+  end subroutine check_repeated_impact
+
   !> Pair slot reaches contact at t: its impulse group (the band contacts connected to it
   !> through moving bodies, sleeping islands it reaches woken), the steps of the islands it
   !> touches cut at t, the impulses (collision_stage%resolve, as the global loop solves an
@@ -862,6 +899,8 @@ contains
     integer :: n_group, n_contact, n_reseed, n_changed, k, m
     logical :: any_change
     self%stats%impacts = self%stats%impacts + 1
+    call check_repeated_impact(self, bodies, stage, slot, t, err)
+    if (err%failed()) return
     call impulse_group(self, stage, bodies, shapes, flight, slot, t, group, n_group, contact_slots, n_contact, err)
     if (err%failed()) return
     ! islands touched: their steps end here, what their passes gave for the rest taken back
