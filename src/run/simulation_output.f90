@@ -214,7 +214,8 @@ contains
       associate (ev => self%events%stats)
         write (*, '(a)') '  local events         '//str(ev%impacts)//' impacts, '//str(ev%island_steps)//' island steps ('// &
           str(ev%body_steps)//' body-steps, '//str(ev%island_cuts)//' cut by impacts, '//str(ev%joins)// &
-          ' bodies waited to join), '//str(ev%enters)//' pairs came within reach of a pass'
+          ' bodies waited to join, '//str(ev%holds)//' held to repeated impacts), '//str(ev%enters)// &
+          ' pairs came within reach of a pass'
         write (*, '(a)') '  pair certificates    '//str(ev%certificates)//' ('//str(ev%far_certificates)// &
           ' from bounding volumes), '//str(ev%crossings)//' box crossings'
         write (*, '(a)') '  body updates         '//str(ev%evaluations)//' for events, '//str(ev%output_evaluations)// &

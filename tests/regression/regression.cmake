@@ -44,8 +44,8 @@ if(RICOCHET_USE_HDF5)
   # A full disk (a file-size limit) ends a run with one error line, no .tmp, valid indexes.
   ricochet_python_case(disk_full check_disk_full.py $<TARGET_FILE:ricochet>
                        ${CMAKE_CURRENT_BINARY_DIR}/run/regression_disk_full)
-  # The local loop never hangs: a checkpoint whose restart hit a livelock (tests/data/stall)
-  # completes or stops with the stall error naming the pair.
+  # The local loop's livelock at one time is fixed: a checkpoint whose restart hit it
+  # (tests/data/stall) completes, its repeated impacts held.
   ricochet_python_case(stall_guard check_stall_guard.py $<TARGET_FILE:ricochet>
                        ${PROJECT_SOURCE_DIR}/tests/data/stall ${CMAKE_CURRENT_BINARY_DIR}/run/regression_stall_guard)
   # SIGTERM, SIGINT and &run wall_limit stop a run with a checkpoint it continues from.
