@@ -107,6 +107,10 @@ module event_loop
     integer, allocatable :: impacts_now(:)
     integer :: n_impacts_now = 0
     real(dp) :: impacts_now_time = -1.0_dp
+    !> Island steps taken at steps_now_time: past 100 + 4 per body, time has stopped
+    !> passing (a cycle of steps no guard above names) and the run stops with an error
+    integer :: steps_now = 0
+    real(dp) :: steps_now_time = -1.0_dp
     type(event_stats_t) :: stats
     integer, allocatable :: found(:)
   contains
@@ -183,6 +187,8 @@ contains
     self%last_impact_time = -1.0_dp
     self%n_impacts_now = 0
     self%impacts_now_time = -1.0_dp
+    self%steps_now = 0
+    self%steps_now_time = -1.0_dp
     call self%pairs%init(n, 8*n)
     if (allocated(self%pair_mark)) deallocate (self%pair_mark)
     allocate (self%pair_mark(0))
@@ -1200,6 +1206,22 @@ contains
     integer :: wait_for
     real(dp) :: t_wait
     self%stats%island_steps = self%stats%island_steps + 1
+    if (T /= self%steps_now_time) then
+      self%steps_now = 0
+      self%steps_now_time = T
+    end if
+    self%steps_now = self%steps_now + 1
+    if (self%steps_now > 100 + 4*(bodies%n_owned + bodies%n_ghost)) then
+      if (size(seeds) > 0) then
+        call err%set(ERR_NUMERIC, 'collision loop stalled: '//str(self%steps_now)//' island steps at t = '//str(T)// &
+                     ' s without time passing, the last seeded by body '//str(bodies%gid(seeds(1)))// &
+                     ' (docs/contact.md, "Known limits")')
+      else
+        call err%set(ERR_NUMERIC, 'collision loop stalled: '//str(self%steps_now)//' island steps at t = '//str(T)// &
+                     ' s without time passing (docs/contact.md, "Known limits")')
+      end if
+      return
+    end if
     h0 = min(self%dt_max, self%t_hard - T)
     if (h0 <= 0.0_dp) then
       ! at the next checkpoint or the end: the rebuild there steps them (certified till then)
