@@ -30,13 +30,21 @@ module impulse_solver
   use vector_ops, only: cross
   use quaternion, only: quat_rotate, quat_rotate_inverse
   use body_state, only: bodies_t
-  use nnls, only: solve_nnls
+  use nnls, only: solve_nnls, nnls_state_t
   use contact_point, only: contact_t
   use islands, only: contact_groups, group_members
   implicit none
   private
   public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, scaled_velocity, &
-            set_scaled_velocity, scaled_row, group_members, contact_groups
+            set_scaled_velocity, scaled_row, group_members, contact_groups, projection_warm_t
+
+  !> The factorisations of the last inelastic projections of a fixed set of contacts, one
+  !> per contact group (contact_groups' order), for repeated solves with the same contacts
+  !> and poses and new velocities (the rounds of a staggered solve): each round's
+  !> projection starts from the last one's passive set and QR (nnls_state_t).
+  type :: projection_warm_t
+    type(nnls_state_t), allocatable :: groups(:)
+  end type projection_warm_t
 
 
   type :: impulse_stats_t
@@ -78,8 +86,10 @@ contains
   !> max_group, when present: groups of more contacts are not solved here (the dense exact
   !> solve grows as the cube of a group's size); large(i) marks their contacts, for an
   !> iterative solver of the caller's.
+  !> warm, when present: the factorisations of the previous call with the same contacts and
+  !> poses (made here on the first), the start of each group's projection.
   subroutine resolve_impacts(bodies, contacts, velocity_tolerance, max_rounds, stats, err, normal_impulse, &
-                             max_group, large)
+                             max_group, large, warm)
     type(bodies_t), intent(inout) :: bodies
     type(contact_t), intent(in) :: contacts(:)
     real(dp), intent(in) :: velocity_tolerance
@@ -89,11 +99,18 @@ contains
     real(dp), intent(out), optional :: normal_impulse(:)
     integer, intent(in), optional :: max_group
     logical, intent(out), optional :: large(:)
+    type(projection_warm_t), intent(inout), optional :: warm
     real(dp), allocatable :: group_impulse(:)
     integer, allocatable :: group_start(:), group_list(:)
     integer :: n_groups, k, g
 
     call contact_groups(bodies, contacts, group_start, group_list, n_groups)
+    if (present(warm)) then
+      if (allocated(warm%groups)) then
+        if (size(warm%groups) /= n_groups) deallocate (warm%groups)
+      end if
+      if (.not. allocated(warm%groups)) allocate (warm%groups(n_groups))
+    end if
     if (present(normal_impulse)) normal_impulse = 0.0_dp
     if (present(large)) large = .false.
     do k = 1, n_groups
@@ -110,7 +127,12 @@ contains
       if (any([(normal_velocity(bodies, contacts(in_group(g))) < &
                 -contacts(in_group(g))%allowed_approach - velocity_tolerance, g=1, size(in_group))])) then
         allocate (group_impulse(size(in_group)))
-        call solve_group(bodies, contacts(in_group), velocity_tolerance, max_rounds, stats, group_impulse, err)
+        if (present(warm)) then
+          call solve_group(bodies, contacts(in_group), velocity_tolerance, max_rounds, stats, group_impulse, err, &
+                           warm%groups(k))
+        else
+          call solve_group(bodies, contacts(in_group), velocity_tolerance, max_rounds, stats, group_impulse, err)
+        end if
         if (err%failed()) return
         if (present(normal_impulse)) normal_impulse(in_group) = group_impulse
         deallocate (group_impulse)
@@ -126,7 +148,7 @@ contains
 
   !> One connected group: builds the scaled contact matrix E, solves the inelastic
   !> projection and the elastic reflections, blends them with e.
-  subroutine solve_group(bodies, contacts, velocity_tolerance, max_rounds, stats, impulse, err)
+  subroutine solve_group(bodies, contacts, velocity_tolerance, max_rounds, stats, impulse, err, warm)
     type(bodies_t), intent(inout) :: bodies
     type(contact_t), intent(in) :: contacts(:)
     real(dp), intent(in) :: velocity_tolerance
@@ -134,6 +156,7 @@ contains
     type(impulse_stats_t), intent(inout) :: stats
     real(dp), intent(out) :: impulse(:)   !< normal impulse of each contact [N s]
     type(error_t), intent(inout) :: err
+    type(nnls_state_t), intent(inout), optional :: warm   !< the inelastic projection's factorisation
     real(dp), allocatable :: lambda_elastic(:)
     integer, allocatable :: active(:)
     integer, allocatable :: members(:), side(:, :)
@@ -173,9 +196,9 @@ contains
     allocate (lambda(m), lambda_elastic(m))
     lambda_elastic = 0.0_dp
     if (any(contacts%allowed_approach > 0.0_dp)) then
-      call solve_biased_projection(e_matrix, vt0, contacts%allowed_approach, lambda, iterations, err, converged)
+      call solve_biased_projection(e_matrix, vt0, contacts%allowed_approach, lambda, iterations, err, converged, warm)
     else
-      call solve_nnls(e_matrix, -vt0, lambda, iterations, err, converged)
+      call solve_nnls(e_matrix, -vt0, lambda, iterations, err, converged, state=warm)
     end if
     if (err%failed()) return
     if (.not. converged) stats%nnls_unconverged = stats%nnls_unconverged + 1
@@ -247,12 +270,13 @@ contains
   !> largest diagonal of K the constraints hold to 1e-10 of the velocity change, below the
   !> solvers' tolerances (a larger eps loses digits of s/eps in the residual), and
   !> the appended rows make the problem full rank (no dependent columns held out).
-  subroutine solve_biased_projection(e_matrix, vt0, allowed, lambda, iterations, err, converged)
+  subroutine solve_biased_projection(e_matrix, vt0, allowed, lambda, iterations, err, converged, warm)
     real(dp), intent(in) :: e_matrix(:, :), vt0(:), allowed(:)
     real(dp), intent(out) :: lambda(:)
     integer, intent(out) :: iterations
     type(error_t), intent(inout) :: err
     logical, intent(out) :: converged
+    type(nnls_state_t), intent(inout), optional :: warm
     real(dp), allocatable :: augmented(:, :), rhs(:)
     real(dp) :: eps
     integer :: rows, m, i
@@ -267,7 +291,7 @@ contains
       augmented(rows + i, i) = eps
       rhs(rows + i) = -allowed(i)/eps
     end do
-    call solve_nnls(augmented, rhs, lambda, iterations, err, converged)
+    call solve_nnls(augmented, rhs, lambda, iterations, err, converged, state=warm)
   end subroutine solve_biased_projection
 
   !> M^(1/2) (v, w): sqrt(m) v and R diag(sqrt(I)) R^T w.

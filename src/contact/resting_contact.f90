@@ -29,7 +29,7 @@ module resting_contact
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
   use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, contact_groups, &
-                            scaled_velocity, set_scaled_velocity, scaled_row, group_members
+                            scaled_velocity, set_scaled_velocity, scaled_row, group_members, projection_warm_t
   use contact_solver, only: pgs_stats_t, pgs_setup_t, solve_contacts_pgs, tangent_basis
   use nnls, only: solve_nnls
   use vector_ops, only: cross
@@ -342,6 +342,7 @@ contains
     real(dp), allocatable :: v_star(:, :), w_star(:, :), v_round(:, :), lam_n(:), tangential(:, :)
     integer, allocatable :: members(:), side(:, :)
     type(pgs_setup_t) :: setup
+    type(projection_warm_t) :: warm
     real(dp) :: change
     integer :: m, k, round, n_members
     m = size(contacts)
@@ -369,7 +370,8 @@ contains
       call solve_contacts_pgs(bodies, contacts, tangential, self%tolerance, 0, self%pgs, fixed_normal=lam_n, &
                               setup=setup)
       ! exact normal impulses for it
-      call resolve_impacts(bodies, contacts, self%velocity_tolerance, 1, self%exact, err, lam_n)
+      ! (E is the same every round: each projection starts from the last one's QR)
+      call resolve_impacts(bodies, contacts, self%velocity_tolerance, 1, self%exact, err, lam_n, warm=warm)
       if (err%failed()) return
       ! friction for those normal impulses
       call solve_contacts_pgs(bodies, contacts, tangential, self%tolerance, friction_sweeps, self%pgs, &

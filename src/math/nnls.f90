@@ -28,7 +28,7 @@ module nnls
   use string_utils, only: str
   implicit none
   private
-  public :: solve_nnls
+  public :: solve_nnls, nnls_state_t
 
   !> A column is dependent on the passive ones when its orthogonal part is below this
   !> fraction of its norm (dgelsy's rcond was 1e-12 on the whole block; a single column's
@@ -51,6 +51,17 @@ module nnls
     real(dp), allocatable :: val(:)
   end type sparse_columns_t
 
+  !> The factorisation a solve ended with, for the next solve with the same E and another f
+  !> (the rounds of a staggered solve): that one starts from this passive set and its QR,
+  !> recomputing only Q^T f, instead of building the factorisation column by column again.
+  !> Used only if E is the same to the bit (its nonzeros are compared).
+  type :: nnls_state_t
+    logical :: ready = .false.
+    type(passive_qr_t) :: qr
+    type(sparse_columns_t) :: cols
+    logical, allocatable :: passive(:)
+  end type nnls_state_t
+
 contains
 
   !> x >= 0 minimising |E x - f|; iterations counts outer steps. At the iteration cap
@@ -59,109 +70,230 @@ contains
   !> and converged = .false. when the argument is present, else err is set.
   !> spread (default true): move x to the minimum-norm point over the dependent columns at
   !> the end (spread_over_dependent); a caller that needs only E x may skip it.
-  subroutine solve_nnls(e, f, x, iterations, err, converged, spread)
+  !> state, when present: the previous solve's factorisation, reused if E is the same, and
+  !> this solve's, kept for the next (the optimum is the same from any feasible start: E x is
+  !> unique, and with full-rank E so is x; the last bits may differ from a cold start).
+  !> A resumed solve that has not converged after resume_iterations(n) steps is given up and
+  !> the problem solved cold, as without state, so a resumed start never costs more than
+  !> that bound over a cold solve and never ends unconverged where a cold one would not.
+  subroutine solve_nnls(e, f, x, iterations, err, converged, spread, state)
     real(dp), intent(in) :: e(:, :), f(:)
     real(dp), intent(out) :: x(:)
     integer, intent(out) :: iterations
     type(error_t), intent(inout) :: err
     logical, intent(out), optional :: converged
     logical, intent(in), optional :: spread
+    type(nnls_state_t), intent(inout), optional :: state
     type(passive_qr_t) :: qr
     type(sparse_columns_t) :: cols
-    integer :: m, n, j, p, t, max_iterations, inner, kmax, blocking
-    logical :: passive(size(e, 2)), blocked(size(e, 2)), added
-    real(dp) :: w(size(e, 2)), z(size(e, 2)), residual(size(e, 1)), tolerance, alpha, ratio
+    integer :: m, n, j, p, t, max_iterations, inner, kmax, blocking, resumed_steps
+    logical :: passive(size(e, 2)), blocked(size(e, 2)), added, reuse
+    real(dp) :: w(size(e, 2)), z(size(e, 2)), residual(size(e, 1)), tolerance, alpha, ratio, stationary
 
     m = size(e, 1)
     n = size(e, 2)
     x = 0.0_dp
-    passive = .false.
-    blocked = .false.
     iterations = 0
     if (present(converged)) converged = .true.
-    if (n == 0) return
-    max_iterations = 3*n + 10
     kmax = min(m, n)
-    allocate (qr%q(m, kmax), qr%r(kmax, kmax), qr%qtf(kmax), qr%column(kmax))
-    call compress_columns(e, cols)
+    reuse = .false.
+    resumed_steps = 0
+    if (n > 0) call compress_columns(e, cols)
+    if (present(state)) then
+      if (state%ready .and. n > 0) then
+        reuse = same_columns(state%cols, cols) .and. size(state%passive) == n
+        if (reuse) reuse = size(state%qr%q, 1) == m .and. size(state%qr%q, 2) == kmax
+      end if
+      state%ready = .false.
+    end if
+    if (n == 0) return
     ! Dual-feasibility tolerance relative to the problem's scale: round-off in E^T r is about
     ! eps |E| |f|; 100 eps keeps the loop from chasing noise.
     tolerance = 100.0_dp*epsilon(1.0_dp)*max(norm2(e), tiny(1.0_dp))*max(norm2(f), tiny(1.0_dp))
-    residual = f
-    call gradient(cols, residual, w)
-    outer: do
-      ! The most violated column that can enter (independent of the passive ones).
-      added = .false.
-      do
-        if (.not. any(.not. passive .and. .not. blocked .and. w > tolerance)) exit
-        t = maxloc(w, dim=1, mask=.not. passive .and. .not. blocked)
-        if (qr%k < kmax) then
-          call add_column(qr, e(:, t), f, t, added, cols)
-        end if
-        if (added) exit
-        blocked(t) = .true.
-      end do
-      if (.not. added) exit outer
-      iterations = iterations + 1
-      if (iterations > max_iterations) then
-        if (present(converged)) then
-          converged = .false.
-        else
-          call err%set(ERR_NUMERIC, 'NNLS did not converge in '//str(max_iterations)//' iterations')
-        end if
-        return
-      end if
-      passive(t) = .true.
-      do inner = 1, n + 1
-        call back_substitute(qr, z)
-        if (all(z(1:qr%k) > 0.0_dp)) exit
-        ! Step from x towards z only as far as feasibility allows, then drop the variables
-        ! that reached zero.
-        alpha = 1.0_dp
-        blocking = 0
+    ! (the stationarity check of a resumed solve: far above round-off, far below an error)
+    stationary = sqrt(epsilon(1.0_dp))*max(norm2(e), tiny(1.0_dp))*max(norm2(f), tiny(1.0_dp))
+    attempt: do
+      x = 0.0_dp
+      passive = .false.
+      blocked = .false.
+      iterations = 0
+      residual = f
+      if (reuse) then
+        ! the last passive set and its factorisation, with Q^T f for this f
+        call move_alloc(state%qr%q, qr%q)
+        call move_alloc(state%qr%r, qr%r)
+        call move_alloc(state%qr%qtf, qr%qtf)
+        call move_alloc(state%qr%column, qr%column)
+        qr%k = state%qr%k
+        passive = state%passive
         do p = 1, qr%k
-          j = qr%column(p)
-          if (z(p) <= 0.0_dp) then
-            ratio = x(j)/(x(j) - z(p))
-            if (ratio < alpha .or. blocking == 0) then
-              alpha = min(alpha, ratio)
-              blocking = p
+          qr%qtf(p) = dot_product(qr%q(:, p), f)
+        end do
+        call drop_to_feasible(qr, x, passive)
+        call residual_of(cols, f, x, residual)
+        max_iterations = resume_iterations(n)
+      else
+        if (allocated(qr%q)) deallocate (qr%q, qr%r, qr%qtf, qr%column)
+        allocate (qr%q(m, kmax), qr%r(kmax, kmax), qr%qtf(kmax), qr%column(kmax))
+        qr%k = 0
+        max_iterations = 3*n + 10
+      end if
+      call gradient(cols, residual, w)
+      outer: do
+        ! The most violated column that can enter (independent of the passive ones).
+        added = .false.
+        do
+          if (.not. any(.not. passive .and. .not. blocked .and. w > tolerance)) exit
+          t = maxloc(w, dim=1, mask=.not. passive .and. .not. blocked)
+          if (qr%k < kmax) then
+            call add_column(qr, e(:, t), f, t, added, cols)
+          end if
+          if (added) exit
+          blocked(t) = .true.
+        end do
+        if (.not. added) then
+          ! Optimal: x >= 0, no column outside P can lower |E x - f|. A resumed solve is
+          ! also checked for stationarity on P, E_P^T r = 0, which holds to round-off when
+          ! the reused factorisation still matches E_P (a gross error falls back to cold).
+          if (reuse) then
+            if (any(passive .and. abs(w) > stationary)) then
+              resumed_steps = iterations
+              reuse = .false.
+              cycle attempt
             end if
           end if
-        end do
-        do p = 1, qr%k
-          j = qr%column(p)
-          x(j) = x(j) + alpha*(z(p) - x(j))
-        end do
-        ! The variable that set the step reaches zero exactly (in floating point x - alpha (x
-        ! - z) may land a rounding above it, and the loop would then never drop it).
-        x(qr%column(blocking)) = 0.0_dp
-        do p = qr%k, 1, -1
-          j = qr%column(p)
-          if (x(j) <= 0.0_dp .or. (z(p) <= 0.0_dp .and. x(j) < tiny(1.0_dp)*1.0e10_dp)) then
-            x(j) = 0.0_dp
-            passive(j) = .false.
-            call remove_column(qr, p)
-            blocked = .false.    ! the span shrank: held-out columns may be independent now
+          exit attempt
+        end if
+        iterations = iterations + 1
+        if (iterations > max_iterations) then
+          if (reuse) then
+            ! the resumed start does not lead to the optimum soon (the reused factorisation
+            ! or passive set is a poor start here): the cold solve, from nothing
+            resumed_steps = iterations
+            reuse = .false.
+            cycle attempt
           end if
+          if (present(converged)) then
+            converged = .false.
+          else
+            call err%set(ERR_NUMERIC, 'NNLS did not converge in '//str(max_iterations)//' iterations')
+          end if
+          return
+        end if
+        passive(t) = .true.
+        do inner = 1, n + 1
+          call back_substitute(qr, z)
+          if (all(z(1:qr%k) > 0.0_dp)) exit
+          ! Step from x towards z only as far as feasibility allows, then drop the variables
+          ! that reached zero.
+          alpha = 1.0_dp
+          blocking = 0
+          do p = 1, qr%k
+            j = qr%column(p)
+            if (z(p) <= 0.0_dp) then
+              ratio = x(j)/(x(j) - z(p))
+              if (ratio < alpha .or. blocking == 0) then
+                alpha = min(alpha, ratio)
+                blocking = p
+              end if
+            end if
+          end do
+          do p = 1, qr%k
+            j = qr%column(p)
+            x(j) = x(j) + alpha*(z(p) - x(j))
+          end do
+          ! The variable that set the step reaches zero exactly (in floating point x - alpha (x
+          ! - z) may land a rounding above it, and the loop would then never drop it).
+          x(qr%column(blocking)) = 0.0_dp
+          do p = qr%k, 1, -1
+            j = qr%column(p)
+            if (x(j) <= 0.0_dp .or. (z(p) <= 0.0_dp .and. x(j) < tiny(1.0_dp)*1.0e10_dp)) then
+              x(j) = 0.0_dp
+              passive(j) = .false.
+              call remove_column(qr, p)
+              blocked = .false.    ! the span shrank: held-out columns may be independent now
+            end if
+          end do
+          if (qr%k == 0) exit
         end do
-        if (qr%k == 0) exit
-      end do
-      x = 0.0_dp
-      if (qr%k > 0) then
-        call back_substitute(qr, z)
-        do p = 1, qr%k
-          x(qr%column(p)) = max(z(p), 0.0_dp)
-        end do
-      end if
-      call residual_of(cols, f, x, residual)
-      call gradient(cols, residual, w)
-    end do outer
+        x = 0.0_dp
+        if (qr%k > 0) then
+          call back_substitute(qr, z)
+          do p = 1, qr%k
+            x(qr%column(p)) = max(z(p), 0.0_dp)
+          end do
+        end if
+        call residual_of(cols, f, x, residual)
+        call gradient(cols, residual, w)
+      end do outer
+    end do attempt
+    iterations = iterations + resumed_steps
     if (present(spread)) then
-      if (.not. spread) return
+      if (spread) call spread_over_dependent(qr, e, x, w, tolerance, passive)
+    else
+      call spread_over_dependent(qr, e, x, w, tolerance, passive)
     end if
-    call spread_over_dependent(qr, e, x, w, tolerance, passive)
+    if (present(state)) then
+      ! kept for the next solve with this E (an unconverged one, above, keeps nothing)
+      call move_alloc(qr%q, state%qr%q)
+      call move_alloc(qr%r, state%qr%r)
+      call move_alloc(qr%qtf, state%qr%qtf)
+      call move_alloc(qr%column, state%qr%column)
+      state%qr%k = qr%k
+      call move_alloc(cols%start, state%cols%start)
+      call move_alloc(cols%row, state%cols%row)
+      call move_alloc(cols%val, state%cols%val)
+      state%passive = passive
+      state%ready = .true.
+    end if
   end subroutine solve_nnls
+
+  !> Columns whose least-squares values on the passive set are not positive leave it, until
+  !> none is: x >= 0 then, positive exactly on the passive set and optimal over it, where a
+  !> Lawson-Hanson step may begin.
+  subroutine drop_to_feasible(qr, x, passive)
+    type(passive_qr_t), intent(inout) :: qr
+    real(dp), intent(out) :: x(:)
+    logical, intent(inout) :: passive(:)
+    real(dp) :: z(size(x))
+    integer :: p
+    do while (qr%k > 0)
+      call back_substitute(qr, z)
+      if (all(z(1:qr%k) > 0.0_dp)) exit
+      ! (not z > 0 rather than z <= 0: a NaN leaves too, so every pass removes a column)
+      do p = qr%k, 1, -1
+        if (.not. (z(p) > 0.0_dp)) then
+          passive(qr%column(p)) = .false.
+          call remove_column(qr, p)
+        end if
+      end do
+    end do
+    x = 0.0_dp
+    if (qr%k > 0) then
+      call back_substitute(qr, z)
+      do p = 1, qr%k
+        x(qr%column(p)) = z(p)
+      end do
+    end if
+  end subroutine drop_to_feasible
+
+  !> The step cap of a resumed solve. Resumed from the last round's passive set, a solve
+  !> usually ends in a few steps (at most 24, mostly under 4, in the 64-cube pours); one that
+  !> needs more than this is solved cold instead, so a poor start costs at most this many
+  !> steps more than the cold solve would.
+  pure integer function resume_iterations(n)
+    integer, intent(in) :: n
+    resume_iterations = n/4 + 10
+  end function resume_iterations
+
+  !> The same nonzeros, bit for bit.
+  pure logical function same_columns(a, b)
+    type(sparse_columns_t), intent(in) :: a, b
+    same_columns = .false.
+    if (.not. (allocated(a%start) .and. allocated(b%start))) return
+    if (size(a%start) /= size(b%start) .or. size(a%row) /= size(b%row)) return
+    same_columns = all(a%start == b%start) .and. all(a%row == b%row) .and. all(a%val == b%val)
+  end function same_columns
 
   !> E x is unique, x is not when columns outside P have zero gradient and lie in the span
   !> of P and each other (the four corners of a box face: the answer above loads two
