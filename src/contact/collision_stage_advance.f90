@@ -24,6 +24,7 @@ submodule (collision_stage) collision_stage_advance
     real(dp) :: min_gap = huge(1.0_dp)
   contains
     procedure :: gap_at => oracle_gap_at
+    procedure :: gap_at_time => oracle_gap_at_time
   end type pair_oracle_t
 
 contains
@@ -154,6 +155,10 @@ contains
     oracle%memo => self%memo
     oracle%config = config
     oracle%time_now = time_now
+    ! times of contact on the exact propagator made canonical: every pose is a function of
+    ! the anchor and the absolute time alone (canonical_crossing)
+    oracle%canonical = flight%exact
+    oracle%origin = time_now
     oracle%gravity = gravity
     oracle%i = i
     oracle%j = j
@@ -358,5 +363,18 @@ contains
     call self%memo%pair_gap(self%shapes, self%bodies, self%i, self%j, xi, qi, xj, qj, gap, normal)
     self%min_gap = min(self%min_gap, gap)
   end subroutine oracle_gap_at
+
+  !> Closest points at the absolute time t_abs: the poses at t_abs + 0 from the anchors, so
+  !> the same bits whatever time_now is (exact propagator).
+  subroutine oracle_gap_at_time(self, t_abs, gap, normal)
+    class(pair_oracle_t), intent(inout) :: self
+    real(dp), intent(in) :: t_abs
+    real(dp), intent(out) :: gap, normal(3)
+    real(dp) :: xi(3), qi(4), xj(3), qj(4)
+    call self%flight%pose_at(self%bodies, self%i, t_abs, 0.0_dp, self%gravity, self%config, xi, qi)
+    call self%flight%pose_at(self%bodies, self%j, t_abs, 0.0_dp, self%gravity, self%config, xj, qj)
+    call self%memo%pair_gap(self%shapes, self%bodies, self%i, self%j, xi, qi, xj, qj, gap, normal)
+    self%min_gap = min(self%min_gap, gap)
+  end subroutine oracle_gap_at_time
 
 end submodule collision_stage_advance

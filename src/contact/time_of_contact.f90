@@ -7,7 +7,7 @@
 !> makes, so the true gap at the new time is >= target. The loop therefore never passes
 !> through a contact, whatever the speeds: no tunnelling.
 module time_of_contact
-  use kinds, only: dp
+  use kinds, only: dp, i8
   use advancement_bound, only: closing_bound_t, time_to_close, closing_bound_along, closing_bound_any
   implicit none
   private
@@ -32,9 +32,15 @@ module time_of_contact
   end type advancement_result_t
 
   !> Closest points of the pair with both bodies moved forward by t from the step's start.
+  !> An oracle that can also evaluate the pair at an absolute time, bit for bit whatever the
+  !> step's start (`canonical`, `origin` = the absolute time of t = 0, `gap_at_time`), gets
+  !> its times of contact made canonical (canonical_crossing).
   type, abstract :: distance_oracle_t
+    logical :: canonical = .false.
+    real(dp) :: origin = 0.0_dp   !< absolute time of t = 0 [s]
   contains
     procedure(gap_at_interface), deferred :: gap_at
+    procedure :: gap_at_time => default_gap_at_time
   end type distance_oracle_t
 
   abstract interface
@@ -48,6 +54,15 @@ module time_of_contact
   end interface
 
 contains
+
+  !> Closest points at the absolute time t_abs (an oracle that is canonical overrides this
+  !> with an evaluation that does not go through the step's start).
+  subroutine default_gap_at_time(self, t_abs, gap, normal)
+    class(distance_oracle_t), intent(inout) :: self
+    real(dp), intent(in) :: t_abs
+    real(dp), intent(out) :: gap, normal(3)
+    call self%gap_at(t_abs - self%origin, gap, normal)
+  end subroutine default_gap_at_time
 
   !> Advances the pair over [0, step] towards the gap `target` (the minimum separation).
   !> gap0/normal0: the closest points at t = 0 (the caller has them from the broad phase).
@@ -356,8 +371,116 @@ contains
       ! safe up to t (capped when that is before the step's end)
       result%contact = .false.
       result%capped = t < step
+    else if (oracle%canonical) then
+      call canonical_crossing(oracle, motion, step, target, aim, eps_gap, t, gap, normal, result)
     end if
   end subroutine refine_crossing
+
+  !> The crossing found by refine_crossing (t, within round-off of the gap) made canonical:
+  !> a function of the two trajectories alone, bit for bit, not of where the advancement
+  !> started (the global loop starts at its step, the local one at the pair's certificate).
+  !> The search above ends within the gap's round-off of the aim, so two starts give times
+  !> that differ by up to round-off over the approach speed: 1e-13 s on a slow approach,
+  !> which a gas amplifies through its later collisions. Here the crossing is looked for
+  !> again on a fixed grid of absolute times, cells of 2^-40 s (9.1e-13 s): the cell at
+  !> whose ends the gap, evaluated at those absolute times (gap_at_time), lies above and at
+  !> or below the aim, then regula falsi (Illinois) inside it from its two ends, every probe
+  !> an absolute time. Each value depends only on the trajectories and the absolute time,
+  !> so any start that finds the crossing within a few cells finds the same cell and the
+  !> same time. The answer is the last probe above the aim (the gap there is measured, so
+  !> it is at least the target) unless one is within eps_gap of it, and it must lie within
+  !> what the bound certifies from t: otherwise, or if no such cell is found within 4 cells,
+  !> t stays as it is.
+  subroutine canonical_crossing(oracle, motion, step, target, aim, eps_gap, t, gap, normal, result)
+    class(distance_oracle_t), intent(inout) :: oracle
+    type(pair_motion_t), intent(in) :: motion
+    real(dp), intent(in) :: step, target, aim, eps_gap
+    real(dp), intent(inout) :: t, gap, normal(3)
+    type(advancement_result_t), intent(inout) :: result
+    real(dp), parameter :: cell = 2.0_dp**(-40)
+    integer, parameter :: max_shifts = 4, max_probes = 12
+    real(dp) :: t_abs, limit, lo, hi, g_lo, g_hi, n_lo(3), n_hi(3), f_lo, f_hi, s, g_s, n_s(3), best_t, best_g, &
+                best_n(3)
+    integer :: k, side
+    t_abs = oracle%origin + t
+    ! (times beyond 2^12 s would leave the cells fewer bits than their ends need)
+    if (.not. (abs(t_abs) < 4096.0_dp)) return
+    ! what the bound certifies from the found point: every time up to there keeps gap >= target
+    limit = oracle%origin + min(step, t + time_to_close(closing_bound(motion, normal, t), gap - target))
+    lo = real(floor(t_abs/cell, kind=i8), dp)*cell
+    hi = lo + cell
+    call probe(lo, g_lo, n_lo)
+    call probe(hi, g_hi, n_hi)
+    do k = 1, max_shifts
+      if (g_lo > aim) exit
+      hi = lo
+      g_hi = g_lo
+      n_hi = n_lo
+      lo = lo - cell
+      call probe(lo, g_lo, n_lo)
+    end do
+    do k = 1, max_shifts
+      if (g_hi <= aim) exit
+      lo = hi
+      g_lo = g_hi
+      n_lo = n_hi
+      hi = hi + cell
+      call probe(hi, g_hi, n_hi)
+    end do
+    if (.not. (g_lo > aim .and. g_hi <= aim)) return
+    best_t = lo
+    best_g = g_lo
+    best_n = n_lo
+    if (abs(g_hi - aim) <= eps_gap) then
+      best_t = hi
+      best_g = g_hi
+      best_n = n_hi
+    end if
+    f_lo = g_lo - aim
+    f_hi = g_hi - aim
+    side = 0
+    do k = 1, max_probes
+      if (abs(best_g - aim) <= eps_gap) exit
+      if (hi - lo <= 4.0_dp*spacing(hi)) exit
+      s = lo + f_lo*(hi - lo)/(f_lo - f_hi)
+      if (.not. (s > lo .and. s < hi)) s = 0.5_dp*(lo + hi)
+      call probe(s, g_s, n_s)
+      if (abs(g_s - aim) <= eps_gap) then
+        best_t = s
+        best_g = g_s
+        best_n = n_s
+        exit
+      else if (g_s > aim) then
+        lo = s
+        f_lo = g_s - aim
+        if (side == 1) f_hi = 0.5_dp*f_hi
+        side = 1
+        best_t = s
+        best_g = g_s
+        best_n = n_s
+      else
+        hi = s
+        f_hi = g_s - aim
+        if (side == -1) f_lo = 0.5_dp*f_lo
+        side = -1
+      end if
+    end do
+    ! (below the target never: a point within eps_gap of the aim is far above it)
+    if (best_g < target .or. best_t > limit) return
+    ! relative to the origin, so that origin + t gives best_t back exactly where it can
+    t = best_t - oracle%origin
+    if (oracle%origin + t > best_t) t = nearest(t, -1.0_dp)
+    if (oracle%origin + t < best_t) t = nearest(t, 1.0_dp)
+    gap = best_g
+    normal = best_n
+  contains
+    subroutine probe(time_abs, g, n)
+      real(dp), intent(in) :: time_abs
+      real(dp), intent(out) :: g, n(3)
+      call oracle%gap_at_time(time_abs, g, n)
+      result%iterations = result%iterations + 1
+    end subroutine probe
+  end subroutine canonical_crossing
 
   !> The closing bound from time t on: velocities have changed by a t since the step began.
   pure function closing_bound(motion, n, t) result(bound)
