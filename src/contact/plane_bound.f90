@@ -27,16 +27,28 @@
 !> depend on how it turns, so n stays fixed in the world (Omega_P = A_P = 0). With the
 !> closest-point normal, the bound starts at the exact gap for convex pairs; for non-convex
 !> ones it may start lower (still safe, only less useful).
+!> plane_time is the same bound from given states: conservative advancement also takes it at
+!> each iterate (collision_stage_advance's oracle, with either body as P), where a face
+!> turning under the other body's corner would make the fixed-direction bounds crawl.
 module plane_bound
   use kinds, only: dp
-  use shape, only: shape_library_t, SHAPE_SPHERE
+  use shape, only: shape_t, shape_library_t, SHAPE_SPHERE
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
   use advancement_bound, only: angular_speed_bound, closing_bound_t, time_to_close
   use quaternion, only: quat_rotate, quat_rotate_inverse
   implicit none
   private
-  public :: plane_safe_time
+  public :: plane_safe_time, plane_time, plane_body_at
+
+  !> One body as the bound needs it: its state where the bound starts and its turning.
+  type, public :: plane_body_t
+    real(dp) :: x(3) = 0.0_dp, q(4) = [1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp], w(3) = 0.0_dp
+    real(dp) :: v(3) = 0.0_dp, a(3) = 0.0_dp
+    logical :: world_fixed = .false.   !< static or an analytic sphere: its support turns with nothing
+    real(dp) :: omega = 0.0_dp         !< angular speed bound [rad/s]
+    real(dp) :: accel = 0.0_dp         !< angular acceleration bound [rad/s^2]
+  end type plane_body_t
 
 contains
 
@@ -52,11 +64,8 @@ contains
     integer, intent(in) :: i, j
     real(dp), intent(in) :: normal(3), floor, h
     real(dp) :: t_safe
-    integer :: p, v, k
-    real(dp) :: n(3), support, omega_p, accel_p, omega_v, accel_v, reach_v, v_rel(3), a_rel(3)
-    real(dp) :: w(3), rho(3), n_dot(3), f0, slope, m, w0, w1, n_body(3)
-    type(closing_bound_t) :: bound
-    logical :: fixed_frame
+    integer :: p, v
+    real(dp) :: n(3)
 
     ! The plane body: static or a sphere if either is (n then stays fixed in the world),
     ! else the body with more vertices (its support is computed once, the other's per vertex).
@@ -77,29 +86,92 @@ contains
     else
       p = j; v = i; n = -normal
     end if
-    fixed_frame = world_fixed_support(p)
+    t_safe = plane_time(shapes%shapes(bodies%shape_id(p)), plane_body(p), shapes%shapes(bodies%shape_id(v)), &
+                        plane_body(v), n, floor, h)
+  contains
+    logical function world_fixed_support(k)
+      integer, intent(in) :: k
+      world_fixed_support = bodies%fixed(k) .or. shapes%shapes(bodies%shape_id(k))%kind == SHAPE_SPHERE
+    end function world_fixed_support
+
+    integer function vertex_count(k)
+      integer, intent(in) :: k
+      vertex_count = size(shapes%shapes(bodies%shape_id(k))%mesh%nodes, 2)
+    end function vertex_count
+
+    !> Body k at the step's start.
+    function plane_body(k) result(body)
+      integer, intent(in) :: k
+      type(plane_body_t) :: body
+      body = plane_body_at(bodies%x(:, k), bodies%q(:, k), bodies%w(:, k), bodies%v(:, k), bodies%inertia(:, k), &
+                           bodies%fixed(k), shapes%shapes(bodies%shape_id(k)))
+      if (.not. bodies%fixed(k)) body%a = flight%acceleration(k, gravity)
+    end function plane_body
+  end function plane_safe_time
+
+  !> The state the bound needs of one body (acceleration a: to be set by the caller).
+  function plane_body_at(x, q, w, v, inertia, fixed, sh) result(body)
+    real(dp), intent(in) :: x(3), q(4), w(3), v(3), inertia(3)
+    logical, intent(in) :: fixed
+    type(shape_t), intent(in) :: sh
+    type(plane_body_t) :: body
+    body%x = x
+    body%q = q
+    body%w = w
+    body%v = v
+    body%a = 0.0_dp
+    body%world_fixed = fixed .or. sh%kind == SHAPE_SPHERE
+    body%omega = 0.0_dp
+    body%accel = 0.0_dp
+    ! Angular speed bound over the step and the bound on the angular acceleration of
+    ! torque-free rotation (1e-12 relative slack: T is conserved to round-off only).
+    if (.not. body%world_fixed) then
+      body%omega = (1.0_dp + 1.0e-12_dp)*angular_speed_bound(inertia, quat_rotate_inverse(q, w))
+      body%accel = 0.5_dp*(maxval(inertia) - minval(inertia))/minval(inertia)*body%omega**2
+    end if
+  end function plane_body_at
+
+  !> The bound with P the plane body, V the other and n the unit normal from P to V: the
+  !> time before which the gap cannot fall below floor (see plane_safe_time). Both bodies
+  !> at the time the bound starts; h: the interval it must hold over.
+  function plane_time(shape_p, body_p, shape_v, body_v, n, floor, h) result(t_safe)
+    type(shape_t), intent(in) :: shape_p, shape_v
+    type(plane_body_t), intent(in) :: body_p, body_v
+    real(dp), intent(in) :: n(3), floor, h
+    real(dp) :: t_safe
+    integer :: k
+    real(dp) :: support, omega_p, accel_p, omega_v, accel_v, reach_v, v_rel(3), a_rel(3)
+    real(dp) :: w(3), rho(3), n_dot(3), f0, slope, m, w0, w1, n_body(3)
+    type(closing_bound_t) :: bound
+    logical :: fixed_frame
+
+    fixed_frame = body_p%world_fixed
 
     ! Support of P along n, relative to its centre of mass.
-    if (shapes%shapes(bodies%shape_id(p))%kind == SHAPE_SPHERE) then
-      support = shapes%shapes(bodies%shape_id(p))%radius
+    if (shape_p%kind == SHAPE_SPHERE) then
+      support = shape_p%radius
     else
-      n_body = quat_rotate_inverse(bodies%q(:, p), n)
-      support = maxval(matmul(n_body, shapes%shapes(bodies%shape_id(p))%mesh%nodes))
+      n_body = quat_rotate_inverse(body_p%q, n)
+      support = maxval(matmul(n_body, shape_p%mesh%nodes))
     end if
 
     omega_p = 0.0_dp
     accel_p = 0.0_dp
-    if (.not. fixed_frame) call turning(p, omega_p, accel_p)
+    if (.not. fixed_frame) then
+      omega_p = body_p%omega
+      accel_p = body_p%accel
+    end if
     omega_v = 0.0_dp
     accel_v = 0.0_dp
     reach_v = 0.0_dp
-    if (.not. world_fixed_support(v)) then
-      call turning(v, omega_v, accel_v)
-      reach_v = shapes%shapes(bodies%shape_id(v))%bounding_radius
+    if (.not. body_v%world_fixed) then
+      omega_v = body_v%omega
+      accel_v = body_v%accel
+      reach_v = shape_v%bounding_radius
     end if
-    v_rel = bodies%v(:, v) - bodies%v(:, p)
-    a_rel = acceleration(v) - acceleration(p)
-    w0 = norm2(bodies%x(:, v) - bodies%x(:, p)) + shapes%shapes(bodies%shape_id(v))%bounding_radius + &
+    v_rel = body_v%v - body_p%v
+    a_rel = body_v%a - body_p%a
+    w0 = norm2(body_v%x - body_p%x) + shape_v%bounding_radius + &
          norm2(v_rel)*h + 0.5_dp*norm2(a_rel)*h*h
     w1 = norm2(v_rel) + norm2(a_rel)*h + omega_v*reach_v
     ! -M: a lower bound on every f_q'' over the step.
@@ -110,23 +182,23 @@ contains
     end if
     ! n' = w_P x n (zero when n is fixed in the world)
     n_dot = 0.0_dp
-    if (.not. fixed_frame) n_dot = cross(bodies%w(:, p), n)
+    if (.not. fixed_frame) n_dot = cross(body_p%w, n)
     bound%acceleration = m
 
     t_safe = huge(1.0_dp)
-    if (shapes%shapes(bodies%shape_id(v))%kind == SHAPE_SPHERE) then
+    if (shape_v%kind == SHAPE_SPHERE) then
       ! The sphere's nearest point along -n is x_V - r n whichever way it turns.
-      w = bodies%x(:, v) - bodies%x(:, p)
-      f0 = dot_product(n, w) - shapes%shapes(bodies%shape_id(v))%radius - support
+      w = body_v%x - body_p%x
+      f0 = dot_product(n, w) - shape_v%radius - support
       slope = dot_product(n_dot, w) + dot_product(n, v_rel)
       t_safe = vertex_safe_time(f0, slope)
     else
-      associate (nodes => shapes%shapes(bodies%shape_id(v))%mesh%nodes)
+      associate (nodes => shape_v%mesh%nodes)
         do k = 1, size(nodes, 2)
-          rho = quat_rotate(bodies%q(:, v), nodes(:, k))
-          w = bodies%x(:, v) + rho - bodies%x(:, p)
+          rho = quat_rotate(body_v%q, nodes(:, k))
+          w = body_v%x + rho - body_p%x
           f0 = dot_product(n, w) - support
-          slope = dot_product(n_dot, w) + dot_product(n, v_rel + cross(bodies%w(:, v), rho))
+          slope = dot_product(n_dot, w) + dot_product(n, v_rel + cross(body_v%w, rho))
           t_safe = min(t_safe, vertex_safe_time(f0, slope))
           if (t_safe == 0.0_dp) return
         end do
@@ -149,35 +221,7 @@ contains
         t_q = 0.0_dp
       end if
     end function vertex_safe_time
-
-    logical function world_fixed_support(k)
-      integer, intent(in) :: k
-      world_fixed_support = bodies%fixed(k) .or. shapes%shapes(bodies%shape_id(k))%kind == SHAPE_SPHERE
-    end function world_fixed_support
-
-    integer function vertex_count(k)
-      integer, intent(in) :: k
-      vertex_count = size(shapes%shapes(bodies%shape_id(k))%mesh%nodes, 2)
-    end function vertex_count
-
-    function acceleration(k) result(a)
-      integer, intent(in) :: k
-      real(dp) :: a(3)
-      a = 0.0_dp
-      if (.not. bodies%fixed(k)) a = flight%acceleration(k, gravity)
-    end function acceleration
-
-    !> Angular speed bound over the step and the bound on the angular acceleration of
-    !> torque-free rotation (1e-12 relative slack: T is conserved to round-off only).
-    subroutine turning(k, omega, accel)
-      integer, intent(in) :: k
-      real(dp), intent(out) :: omega, accel
-      associate (inertia => bodies%inertia(:, k))
-        omega = (1.0_dp + 1.0e-12_dp)*angular_speed_bound(inertia, quat_rotate_inverse(bodies%q(:, k), bodies%w(:, k)))
-        accel = 0.5_dp*(maxval(inertia) - minval(inertia))/minval(inertia)*omega**2
-      end associate
-    end subroutine turning
-  end function plane_safe_time
+  end function plane_time
 
   pure function cross(a, b) result(c)
     real(dp), intent(in) :: a(3), b(3)

@@ -6,6 +6,10 @@
 !> Each advance is safe by construction: the bound holds for the motion the integrator
 !> makes, so the true gap at the new time is >= target. The loop therefore never passes
 !> through a contact, whatever the speeds: no tunnelling.
+!>
+!> The oracle may know a tighter bound from the poses it computes (turning_time: for convex
+!> pairs on the exact propagator, turning_bound's directional bound and plane_bound's from
+!> each iterate); every advance then takes the later of the two times, each of which is safe.
 module time_of_contact
   use kinds, only: dp, i8
   use advancement_bound, only: closing_bound_t, time_to_close, closing_bound_along, closing_bound_any
@@ -35,12 +39,16 @@ module time_of_contact
   !> An oracle that can also evaluate the pair at an absolute time, bit for bit whatever the
   !> step's start (`canonical`, `origin` = the absolute time of t = 0, `gap_at_time`), gets
   !> its times of contact made canonical (canonical_crossing).
+  !> turning_time: a second bound the oracle may know (turning_bound's directional one, from
+  !> the poses it has): how long from t the pair stays above `above` along normal; 0 (the
+  !> default) when it has none. advance_pair advances by the later of it and its own bound.
   type, abstract :: distance_oracle_t
     logical :: canonical = .false.
     real(dp) :: origin = 0.0_dp   !< absolute time of t = 0 [s]
   contains
     procedure(gap_at_interface), deferred :: gap_at
     procedure :: gap_at_time => default_gap_at_time
+    procedure :: turning_time => no_turning_time
   end type distance_oracle_t
 
   abstract interface
@@ -63,6 +71,12 @@ contains
     real(dp), intent(out) :: gap, normal(3)
     call self%gap_at(t_abs - self%origin, gap, normal)
   end subroutine default_gap_at_time
+  !> No second bound: advance_pair uses its own.
+  real(dp) function no_turning_time(self, t, normal, above, horizon) result(dt)
+    class(distance_oracle_t), intent(inout) :: self
+    real(dp), intent(in) :: t, normal(3), above, horizon
+    dt = 0.0_dp
+  end function no_turning_time
 
   !> Advances the pair over [0, step] towards the gap `target` (the minimum separation).
   !> gap0/normal0: the closest points at t = 0 (the caller has them from the broad phase).
@@ -145,7 +159,8 @@ contains
       end if
       bound = closing_bound(motion, normal, t)
       if (gap > target + tolerance) then
-        dt = time_to_close(bound, gap - aim)
+        ! either bound is safe, so the later of the two
+        dt = max(time_to_close(bound, gap - aim), oracle%turning_time(t, normal, aim, step - t))
       else if (bound%rate > velocity_tolerance .and. .not. (measured_receding .and. t == 0.0_dp)) then
         result%contact = .true.       ! in the band and approaching: an event now
         ! unless it starts above the aim (a step of the caller ended there): the contact is
@@ -157,6 +172,7 @@ contains
         dt = time_to_close(bound, 0.0_dp)
       else
         dt = time_to_close(bound, max(gap - floor, 0.0_dp))
+        if (gap > floor) dt = max(dt, oracle%turning_time(t, normal, floor, step - t))
       end if
       if (dt >= step - t) then
         t = step
@@ -288,7 +304,9 @@ contains
     do k = 1, max_refinements
       if (abs(g_lo - aim) <= eps_gap .or. stalled >= max_stalled) exit
       ! the bound from lo: every time up to `limit` keeps the gap at or above the target
-      limit = min(step, lo + time_to_close(closing_bound(motion, n_lo, lo), g_lo - target))
+      ! (or the oracle's own bound from lo, when it allows more: either is safe)
+      limit = min(step, lo + max(time_to_close(closing_bound(motion, n_lo, lo), g_lo - target), &
+                                 oracle%turning_time(lo, n_lo, target, step - lo)))
       if (bracketed) then
         if (hi - lo <= 4.0_dp*spacing(hi)) exit
         s = lo + f_lo*(hi - lo)/(f_lo - f_hi)
