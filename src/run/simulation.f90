@@ -67,6 +67,7 @@ module simulation
     real(dp) :: next_checkpoint = huge(1.0_dp)
     real(dp) :: wall_before = 0.0_dp      !< wall time of earlier runs (restarts) [s]
     real(dp) :: wall_start = 0.0_dp
+    real(dp) :: startup_wall = 0.0_dp     !< wall time of init on this rank, this run [s]
     real(dp) :: last_progress = 0.0_dp
     real(dp) :: last_dt = 0.0_dp
     real(dp) :: integration_wall = 0.0_dp     !< wall time spent moving bodies, this run [s]
@@ -335,6 +336,7 @@ contains
                                           min(deck%run%t_end, self%next_checkpoint), err)
     self%previous_stop = self%time
     if (self%decomposed) self%window_end = self%time + motion_window(self, par)
+    self%startup_wall = par%wtime() - self%wall_start
   end subroutine simulation_init
 
   !> The event loop a deck asks for: local (default with exact rotation) or global steps.
