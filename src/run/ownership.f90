@@ -29,9 +29,9 @@ contains
   !> the minimum separation: distance corrections and contact passes act there) [m].
   !>
   !> The sweep is the costly part (a lattice translating together overlaps thousands of
-  !> boxes per body: 5 s per rank for 93,312 bodies), so the ranks share it: rank r sweeps
-  !> from the sorted positions r + 1, r + 1 + n_ranks, ... (interleaved, so that dense and
-  !> sparse stretches of x are shared alike) and stops at its first pair. The first pair in
+  !> boxes per body along x: 5 s per rank for 93,312 bodies), so the ranks share it: rank
+  !> r sweeps from the sorted positions r + 1, r + 1 + n_ranks, ... (interleaved, so that
+  !> dense and sparse stretches of x are shared alike) and stops at its first pair. The first pair in
   !> the one-rank sweep order is the one at the smallest sorted position any rank found
   !> (one MPI_Allreduce MIN), so every rank count names the same pair.
   logical function contact_possible(par, shapes, bodies, duration, gravity, pair, margin) result(possible)
@@ -43,6 +43,7 @@ contains
     real(dp), intent(in) :: margin        !< [m]
     integer(i8), intent(out) :: pair(2)   !< global ids of the first pair found (if any)
     real(dp), allocatable :: lower(:, :), upper(:, :), reach(:), x(:, :), v(:, :)
+    real(dp), allocatable :: lx(:), ly(:), lz(:), ux(:), uy(:), uz(:)
     integer(i8), allocatable :: gid(:)
     logical, allocatable :: fixed(:)
     integer, allocatable :: order(:)
@@ -78,10 +79,16 @@ contains
       upper(:, i) = upper(:, i) + r
     end do
     call sort_index_real(lower(1, :), order)
-    ! Everything the sweep reads, in sorted order: consecutive candidates are then
-    ! neighbours in memory (through order they are scattered over all n bodies).
-    lower = lower(:, order)
-    upper = upper(:, order)
+    ! Everything the sweep reads, in sorted order and one array per coordinate: consecutive
+    ! candidates are then neighbours in memory (through order they are scattered over all n
+    ! bodies). With the boxes tested axis by axis, y and z first (they tell most boxes that
+    ! overlap along x apart), the sweep ran 1.5x faster for 93,312 bodies.
+    lx = lower(1, order)
+    ly = lower(2, order)
+    lz = lower(3, order)
+    ux = upper(1, order)
+    uy = upper(2, order)
+    uz = upper(3, order)
     reach = reach(order)
     x = bodies%x(:, order)
     v = bodies%v(:, order)
@@ -90,19 +97,18 @@ contains
     found = huge(1_i8)
     sweep: do a = 1 + par%rank, n, par%n_ranks
       do b = a + 1, n
-        if (lower(1, b) > upper(1, a)) exit
+        if (lx(b) > ux(a)) exit
+        if (ly(b) > uy(a) .or. ly(a) > uy(b) .or. lz(b) > uz(a) .or. lz(a) > uz(b) .or. lx(a) > ux(b)) cycle
         if (fixed(a) .and. fixed(b)) cycle
-        if (all(lower(:, b) <= upper(:, a)) .and. all(lower(:, a) <= upper(:, b))) then
-          ! Two free bodies under the same gravity move linearly relative to each other:
-          ! the closest approach of their centres over [0, duration] is exact.
-          if (.not. (fixed(a) .or. fixed(b))) then
-            if (closest_approach(x(:, b) - x(:, a), v(:, b) - v(:, a), duration) > &
-                (reach(a) + reach(b))*(1.0_dp + 1.0e-9_dp)) cycle
-          end if
-          found = a
-          pair = [min(gid(a), gid(b)), max(gid(a), gid(b))]
-          exit sweep
+        ! Two free bodies under the same gravity move linearly relative to each other:
+        ! the closest approach of their centres over [0, duration] is exact.
+        if (.not. (fixed(a) .or. fixed(b))) then
+          if (closest_approach(x(:, b) - x(:, a), v(:, b) - v(:, a), duration) > &
+              (reach(a) + reach(b))*(1.0_dp + 1.0e-9_dp)) cycle
         end if
+        found = a
+        pair = [min(gid(a), gid(b)), max(gid(a), gid(b))]
+        exit sweep
       end do
     end do sweep
     first = par%min(found)
