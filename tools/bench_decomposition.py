@@ -5,10 +5,11 @@ a lattice of spinning spheres and boxes all translating with one velocity under 
 decomposition in a run"). The lattice crosses brick faces all the time, so every window
 ends with a migration.
 
-For each body count and rank count: wall time of the whole process and of the stepping
-(from the summary), windows, bodies migrated, migration messages and bytes, and the time
-per window (stepping wall / windows: the migration, its reductions and the loop's rebuild,
-since free flight costs nothing between outputs). Frames are off (outputs only at the end)
+For each body count and rank count: wall time of the whole process, of the run and of its
+start-up (both from the summary; the start-up is the slowest rank's), windows, bodies
+migrated, migration messages and bytes, and the time per window (stepping wall / windows:
+the migration, its reductions and the loop's rebuild, since free flight costs nothing
+between outputs). Frames are off (outputs only at the end)
 so the figure is the window's.
 
     .venv/bin/python tools/bench_decomposition.py                    # 10^4 and 10^5 bodies, np 1 2 4
@@ -73,6 +74,7 @@ def run(exe, deck, ranks, out):
         "ranks": ranks,
         "process": wall,
         "wall": get(r"wall time\s+([0-9.eE+-]+) s"),
+        "startup": get(r"start-up\s+([0-9.eE+-]+) s"),
         "windows": get(r"windows\s+(\d+) ended", int) or 0,
         "migrated": get(r"(\d+) bodies changed rank", int) or 0,
         "messages": get(r"(\d+) messages", int) or 0,
@@ -96,8 +98,8 @@ def main():
     lines = ["# Domain decomposition: cost per window (tools/bench_decomposition.py)", "",
              f"Machine: {platform.node()} ({os.cpu_count()} cores), {time.strftime('%Y-%m-%d')}; "
              f"t_end = {args.t_end} s, lattice velocity ({3 * args.speed:g}, {args.speed:g}, {0.5 * args.speed:g}) m/s, no frames. Stepping wall from the end-of-run summary.", "",
-             "| bodies | ranks | bricks | process [s] | run wall [s] | windows | bodies migrated | messages | bytes | per window [ms] |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "| bodies | ranks | bricks | process [s] | run wall [s] | start-up [s] | windows | bodies migrated | messages | bytes | per window [ms] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for n in args.n:
         text, n_bodies = deck_text(n, args.t_end, args.speed)
         deck = os.path.join(work, f"free_{n}.nml")
@@ -107,7 +109,8 @@ def main():
             out = os.path.join(work, f"out_{n}_{ranks}")
             r = run(args.exe, deck, ranks, out)
             per = 1e3 * r["wall"] / r["windows"] if r["windows"] else float("nan")
-            lines.append(f"| {n_bodies} | {ranks} | {r['dims'] or '1 (not split)'} | {r['process']:.2f} | {r['wall']:.3f} | "
+            startup = f"{r['startup']:.3f}" if r["startup"] is not None else "-"
+            lines.append(f"| {n_bodies} | {ranks} | {r['dims'] or '1 (not split)'} | {r['process']:.2f} | {r['wall']:.3f} | {startup} | "
                          f"{r['windows']} | {r['migrated']} | {r['messages']} | {r['bytes']} | {per:.3f} |")
             print(lines[-1], flush=True)
             shutil.rmtree(out, ignore_errors=True)

@@ -51,11 +51,11 @@ module parallel_env
     generic :: sum => sum_dp, sum_int, sum_int8
     generic :: sum_inplace => sum_dp_array, sum_exact_array, sum_exact_one
     generic :: max => max_dp, max_int
-    generic :: min => min_dp
+    generic :: min => min_dp, min_int8
     generic :: any => any_logical
     generic :: exscan => exscan_int8
     generic :: bcast => bcast_string, bcast_int, bcast_dp_array
-    procedure, private :: sum_dp, sum_dp_array, sum_exact_array, sum_exact_one, sum_int, sum_int8, max_dp, max_int, min_dp, &
+    procedure, private :: sum_dp, sum_dp_array, sum_exact_array, sum_exact_one, sum_int, sum_int8, max_dp, max_int, min_dp, min_int8, &
                           any_logical, exscan_int8, bcast_string, bcast_int, bcast_dp_array
   end type parallel_t
 
@@ -412,6 +412,17 @@ contains
     if (self%n_ranks > 1) call MPI_Allreduce(value, min_dp, 1, MPI_DOUBLE_PRECISION, MPI_MIN, self%comm)
 #endif
   end function min_dp
+
+  !> The smallest value over every rank: the first item (in an order all ranks share) that
+  !> some rank found, when each rank searched its own share of the items.
+  integer(i8) function min_int8(self, value)
+    class(parallel_t), intent(in) :: self
+    integer(i8), intent(in) :: value
+    min_int8 = value
+#ifdef RICOCHET_USE_MPI
+    if (self%n_ranks > 1) call MPI_Allreduce(value, min_int8, 1, MPI_INTEGER8, MPI_MIN, self%comm)
+#endif
+  end function min_int8
 
   logical function any_logical(self, value)
     class(parallel_t), intent(in) :: self

@@ -13,6 +13,7 @@ module overlap_check
   use contact_features, only: bodies_overlap, winding_number
   use quaternion, only: quat_rotate_inverse
   use pair_geometry, only: bounding_sphere_boxes
+  use parallel_env, only: parallel_t
   implicit none
   private
   public :: check_initial_overlaps, nearby_pairs
@@ -22,21 +23,33 @@ contains
   !> bodies must hold every body of the run (all ranks check the same pairs, so all agree).
   !> With time present (&output check_overlaps: the same test on every output frame of a
   !> run), an overlap is reported as an interpenetration at that time.
-  subroutine check_initial_overlaps(deck, shapes, bodies, err, time)
+  !> With par present (bodies then the same on every rank), the exact tests, the costly
+  !> part, are shared: rank r tests the candidate pairs r + 1, r + 1 + n_ranks, ... and
+  !> the first overlapping pair in candidate order is the smallest any rank found (one
+  !> MPI_Allreduce MIN), so every rank reports the same pair as one rank does (collective).
+  subroutine check_initial_overlaps(deck, shapes, bodies, err, time, par)
     type(deck_t), intent(in) :: deck
     type(shape_library_t), intent(in) :: shapes
     type(bodies_t), intent(in) :: bodies
     type(error_t), intent(inout) :: err
     real(dp), intent(in), optional :: time
+    type(parallel_t), intent(in), optional :: par
     real(dp), allocatable :: lower(:, :), upper(:, :), extent(:)
     integer, allocatable :: pairs(:, :)
     real(dp) :: box_size
-    integer :: n, i, k, n_pairs
+    integer :: n, k, n_pairs, rank, n_ranks
+    integer(i8) :: found
     logical :: any_dynamic
     logical, allocatable :: static(:)
 
     n = bodies%n_owned
     if (n < 2) return
+    rank = 0
+    n_ranks = 1
+    if (present(par)) then
+      rank = par%rank
+      n_ranks = par%n_ranks
+    end if
     static = bodies%fixed(1:n) .and. .not. bodies%asleep(1:n)   ! asleep bodies are checked too
     allocate (lower(3, n), upper(3, n))
     call bounding_sphere_boxes(shapes, bodies, n, lower, upper)
@@ -46,25 +59,31 @@ contains
     else
       extent = upper(1, :) - lower(1, :)
     end if
+    ! (the same bodies on every rank give the same error, if any, on every rank)
     call choose_box_size(extent, 1.0_dp, box_size, err)
     if (err%failed()) return
     call nearby_pairs(shapes, bodies, box_size, pairs, n_pairs, err)
     if (err%failed()) return
-    do k = 1, n_pairs
+    found = huge(1_i8)
+    do k = 1 + rank, n_pairs, n_ranks
       if (static(pairs(1, k)) .and. static(pairs(2, k))) cycle   ! static scenery may touch
       if (pair_overlaps(shapes, bodies, pairs(1, k), pairs(2, k))) then
-        if (present(time)) then
-          call err%set(ERR_INTERNAL, deck%path//': bodies '//describe(deck, bodies, pairs(1, k))//' and '// &
-                       describe(deck, bodies, pairs(2, k))//' interpenetrate at t = '//str(time)// &
-                       ' s (found by &output check_overlaps): this is a bug, please report it with the deck')
-          return
-        end if
-        call err%set(ERR_INPUT, deck%path//': bodies '//describe(deck, bodies, pairs(1, k))//' and '// &
-                     describe(deck, bodies, pairs(2, k))//' overlap at the start (surfaces cross, touch, '// &
-                     'or one is inside the other): move them apart')
-        return
+        found = k
+        exit
       end if
     end do
+    if (present(par)) found = par%min(found)
+    if (found == huge(1_i8)) return
+    k = int(found)
+    if (present(time)) then
+      call err%set(ERR_INTERNAL, deck%path//': bodies '//describe(deck, bodies, pairs(1, k))//' and '// &
+                   describe(deck, bodies, pairs(2, k))//' interpenetrate at t = '//str(time)// &
+                   ' s (found by &output check_overlaps): this is a bug, please report it with the deck')
+      return
+    end if
+    call err%set(ERR_INPUT, deck%path//': bodies '//describe(deck, bodies, pairs(1, k))//' and '// &
+                 describe(deck, bodies, pairs(2, k))//' overlap at the start (surfaces cross, touch, '// &
+                 'or one is inside the other): move them apart')
   end subroutine check_initial_overlaps
 
   !> The pairs of bodies whose bounding spheres lie within one grid box (of box_size [m])

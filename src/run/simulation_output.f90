@@ -142,7 +142,7 @@ contains
   end procedure fill_meta
 
   module procedure simulation_summary
-    real(dp) :: wall, per_step, min_sep, load(3, 3)
+    real(dp) :: wall, per_step, min_sep, load(3, 3), startup
     integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages
     wall = par%wtime() - self%wall_start
     ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
@@ -161,11 +161,15 @@ contains
     contacts = par%sum(self%collisions%stats%contacts)
     pair_tests = par%sum(self%collisions%stats%pair_tests)
     min_sep = par%min(self%collisions%stats%min_separation)
+    startup = par%max(self%startup_wall)
     if (.not. par%is_root()) return
     per_step = wall/max(real(self%step - self%first_step, dp), 1.0_dp)
     write (*, '(a)') 'ricochet: run finished at t = '//str(self%time, '(g0.6)')//' s'
     write (*, '(a,es10.3,a,i0,a,i0,a)') '  wall time            ', wall, ' s on ', par%n_ranks, ' rank(s), ', &
       self%step - self%first_step, ' steps in this run'
+    ! (what the domain decomposition leaves O(all bodies) per rank sits here: docs/architecture.md)
+    write (*, '(a,es10.3,a)') '  start-up             ', startup, ' s (slowest rank: bodies, start-up checks, '// &
+      'owners, first outputs, the event loop''s set-up)'
     write (*, '(a,es10.3,a,es10.3,a)') '  time per step        ', per_step, ' s (', &
       per_step/max(real(self%n_total, dp), 1.0_dp), ' s per body)'
     write (*, '(a,es10.3,a,es10.3,a)') '  integration time     ', self%integration_wall, ' s (', &

@@ -67,3 +67,16 @@ if(RICOCHET_USE_HDF5)
   set_tests_properties(mpi.decomposition_crossing_bricks PROPERTIES LABELS "mpi;regression"
                        ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 300)
 endif()
+
+# The start-up checks shared among ranks (overlap test, contact_possible's sweep): on 1 to 4
+# ranks the same overlap error names the same bodies, and the notice the same pair.
+if(RICOCHET_USE_HDF5)
+  set(workdir ${CMAKE_CURRENT_BINARY_DIR}/run/mpi_shared_startup)
+  file(MAKE_DIRECTORY ${workdir})
+  add_test(NAME mpi.shared_startup_checks
+           COMMAND ${RICOCHET_PYTHON} ${CMAKE_CURRENT_SOURCE_DIR}/mpi/check_shared_startup.py
+                   $<TARGET_FILE:ricochet> ${workdir} ${MPIEXEC_EXECUTABLE} ${MPIEXEC_PREFLAGS}
+           WORKING_DIRECTORY ${workdir})
+  set_tests_properties(mpi.shared_startup_checks PROPERTIES LABELS "mpi;regression"
+                       ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 300)
+endif()
