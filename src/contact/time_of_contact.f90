@@ -29,7 +29,8 @@ module time_of_contact
   type :: advancement_result_t
     logical :: contact = .false.      !< the gap reaches target + tolerance within the step
     real(dp) :: time = 0.0_dp         !< time of contact, or the step length if none [s]
-    real(dp) :: gap = 0.0_dp          !< gap at `time` (last one computed) [m]
+    !> gap at `time` (last one computed; a lower bound when the oracle gave one there) [m]
+    real(dp) :: gap = 0.0_dp
     real(dp) :: normal(3) = 0.0_dp    !< normal there, from a to b
     integer :: iterations = 0         !< closest-point queries made
     logical :: capped = .false.       !< stopped by the iteration cap (time is still safe)
@@ -48,6 +49,7 @@ module time_of_contact
   contains
     procedure(gap_at_interface), deferred :: gap_at
     procedure :: gap_at_time => default_gap_at_time
+    procedure :: lower_gap_at => default_lower_gap_at
     procedure :: turning_time => no_turning_time
   end type distance_oracle_t
 
@@ -71,6 +73,19 @@ contains
     real(dp), intent(out) :: gap, normal(3)
     call self%gap_at(t_abs - self%origin, gap, normal)
   end subroutine default_gap_at_time
+  !> A lower bound on the gap at t and the direction along which the bodies are separated
+  !> by exactly that much (exact = .true.: it is the gap, from gap_at). An oracle with a
+  !> cheaper certified bound (convex pairs: convex_distance's GJK) overrides it; advance_pair
+  !> takes it for the iterates above the band, where every closing bound it uses (along the
+  !> normal, turning_bound's, plane_bound's) bounds the separation along that direction.
+  subroutine default_lower_gap_at(self, t, gap, normal, exact)
+    class(distance_oracle_t), intent(inout) :: self
+    real(dp), intent(in) :: t
+    real(dp), intent(out) :: gap, normal(3)
+    logical, intent(out) :: exact
+    call self%gap_at(t, gap, normal)
+    exact = .true.
+  end subroutine default_lower_gap_at
   !> No second bound: advance_pair uses its own.
   real(dp) function no_turning_time(self, t, normal, above, horizon) result(dt)
     class(distance_oracle_t), intent(inout) :: self
@@ -121,7 +136,7 @@ contains
     real(dp) :: t, gap, normal(3), dt, aim, safe
     integer :: beyond_safe
     logical :: crawl_limited
-    logical :: separating, probed
+    logical :: separating, probed, exact
     !> With a second-order safe time, a pair hovering just above the band would make the
     !> first-order bound crawl (each query moves the gap little while the turning term says
     !> it may close fast): after this many queries the step ends there (capped, safe) and
@@ -188,7 +203,10 @@ contains
       gap_before = gap
       t = t + dt
       if (crawl_limited) beyond_safe = beyond_safe + 1
-      call oracle%gap_at(t, gap, normal)
+      ! Above the band a certified lower bound is all the next advance needs; in the band
+      ! the exact gap decides (contact or not, refinement, settling).
+      call oracle%lower_gap_at(t, gap, normal, exact)
+      if (.not. exact .and. gap <= target + tolerance) call oracle%gap_at(t, gap, normal)
       result%iterations = result%iterations + 1
       if (gap <= target + tolerance .and. do_refine .and. gap_before <= target + tolerance .and. &
           separating .and. .not. probed) then

@@ -143,7 +143,7 @@ contains
 
   module procedure simulation_summary
     real(dp) :: wall, per_step, min_sep, load(3, 3), startup
-    integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages
+    integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages, convex_bounds
     wall = par%wtime() - self%wall_start
     ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
     ! time (everything but waiting in collectives is not split out yet: the run's wall time).
@@ -160,6 +160,7 @@ contains
     events = par%sum(self%collisions%stats%events)
     contacts = par%sum(self%collisions%stats%contacts)
     pair_tests = par%sum(self%collisions%stats%pair_tests)
+    convex_bounds = par%sum(self%collisions%stats%convex_bounds)
     min_sep = par%min(self%collisions%stats%min_separation)
     startup = par%max(self%startup_wall)
     if (.not. par%is_root()) return
@@ -229,7 +230,8 @@ contains
     end if
     write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', pair_tests, ' pair queries, ', &
       self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, &
-      ' capped, '//str(self%collisions%stats%plane_skips)//' started from a second-order safe time)'
+      ' capped, '//str(self%collisions%stats%plane_skips)//' started from a second-order safe time, '// &
+      str(convex_bounds)//' by GJK bounds)'
     associate (rest => self%collisions%resting)
       if (rest%stats%passes > 0) then
         write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  resting contact      ', rest%stats%passes, ' steps, ', &
