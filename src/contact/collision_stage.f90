@@ -28,7 +28,7 @@ module collision_stage
   use kinds, only: dp, i8
   use error_status, only: error_t
   use input_config, only: contact_config_t, run_config_t, integrator_config_t
-  use shape, only: shape_library_t, SHAPE_SPHERE, SHAPE_MESH
+  use shape, only: shape_library_t, SHAPE_SPHERE
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
   use bucket_grid, only: bucket_grid_t
@@ -55,7 +55,7 @@ module collision_stage
     integer(i8) :: corrections = 0             !< distance corrections (pairs pushed apart)
     integer(i8) :: corrections_capped = 0      !< corrections cut to half the band per body
     integer(i8) :: plane_skips = 0             !< pairs advanced from a second-order safe time (plane_bound)
-    integer(i8) :: convex_bounds = 0           !< advancement iterations answered by GJK's bound (convex_distance)
+    integer(i8) :: convex_bounds = 0           !< queries replaced by GJK's bound (convex_distance): iterates, certificates
     real(dp) :: min_separation = huge(1.0_dp)  !< smallest gap ever computed [m]
   end type collision_stats_t
 

@@ -7,11 +7,10 @@
 submodule (collision_stage) collision_stage_advance
   use time_of_contact, only: pair_motion_t, distance_oracle_t, advance_pair
   use impulse_solver, only: normal_velocity
-  use pair_geometry, only: pair_gap, pair_contact_points
+  use pair_geometry, only: pair_gap, pair_contact_points, convex_pair, convex_pair_bound
   use plane_bound, only: plane_safe_time, plane_time, plane_body_at, plane_body_t
   use gap_memo, only: gap_memo_t
   use turning_bound, only: turning_body_t, turning_body, directional_time
-  use convex_distance, only: convex_bound_t, convex_lower_bound, max_support_vertices
   implicit none
 
   !> Closest points of one pair at time_now + t, with the poses the propagator will give.
@@ -40,10 +39,6 @@ submodule (collision_stage) collision_stage_advance
     procedure :: turning_time => oracle_turning_time
   end type pair_oracle_t
 
-  !> GJK stops when its lower and upper bounds agree to this (relative), or after
-  !> gjk_iterations support points (6.3 on average for boxes, tests/unit/test_convex_distance)
-  real(dp), parameter :: gjk_rel_tol = 1.0e-12_dp
-  integer, parameter :: gjk_iterations = 32
 
   !> The vertex of an analytic sphere: its centre (the radius is swept around it).
   real(dp), parameter :: sphere_node(3, 1) = 0.0_dp
@@ -191,11 +186,7 @@ contains
     ! at the auto min_separation made 2079 impacts instead of 1781, 1.21x the wall time),
     ! while the loose bound's capped crawl leaves them to the island's next contact pass.
     oracle%directional = flight%exact .and. motion%convex .and. .not. solved
-    associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
-      oracle%gjk = motion%convex .and. si%kind == SHAPE_MESH .and. sj%kind == SHAPE_MESH
-      if (oracle%gjk) oracle%gjk = si%mesh%n_nodes <= max_support_vertices .and. &
-                                   sj%mesh%n_nodes <= max_support_vertices
-    end associate
+    oracle%gjk = convex_pair(shapes, bodies, i, j)
     ! Turning bodies: the second-order bound (plane_bound) skips the part of the step in
     ! which the pair provably stays above the band (or, settling in the band, above the
     ! floor). A pair hovering just above the band (within one target, its centres closing
@@ -415,7 +406,7 @@ contains
     real(dp), intent(out) :: gap, normal(3)
     logical, intent(out) :: exact
     real(dp) :: xi(3), qi(4), xj(3), qj(4), wi(3), wj(3)
-    type(convex_bound_t) :: bound
+    logical :: certified
     exact = .true.
     if (.not. self%gjk) then
       call self%gap_at(t, gap, normal)
@@ -423,18 +414,13 @@ contains
     end if
     call self%flight%pose_at(self%bodies, self%i, self%time_now, t, self%gravity, self%config, xi, qi, wi)
     call self%flight%pose_at(self%bodies, self%j, self%time_now, t, self%gravity, self%config, xj, qj, wj)
-    associate (si => self%shapes%shapes(self%bodies%shape_id(self%i)), &
-               sj => self%shapes%shapes(self%bodies%shape_id(self%j)))
-      call convex_lower_bound(si%mesh%nodes, xi, qi, sj%mesh%nodes, xj, qj, gjk_rel_tol, gjk_iterations, bound)
-    end associate
-    if (.not. bound%certified) then
+    call convex_pair_bound(self%shapes, self%bodies, self%i, self%j, xi, qi, xj, qj, gap, normal, certified)
+    if (.not. certified) then
       call self%gap_at(t, gap, normal)
       return
     end if
     exact = .false.
     self%bounds = self%bounds + 1
-    gap = bound%lower
-    normal = bound%normal
     self%t_pose = t
     self%x_pose(:, 1) = xi
     self%x_pose(:, 2) = xj

@@ -4,7 +4,8 @@
 !> naming its features (so that a contact can be recognised at the next step).
 module pair_geometry
   use kinds, only: dp, i8
-  use shape, only: shape_library_t, SHAPE_SPHERE
+  use shape, only: shape_library_t, SHAPE_SPHERE, SHAPE_MESH
+  use convex_distance, only: convex_bound_t, convex_lower_bound, max_support_vertices
   use body_state, only: bodies_t
   use mesh_distance, only: distance_result_t, mesh_mesh_distance, sphere_mesh_distance, feature_pair_t
   use contact_features, only: contact_feature_t, find_contact_features
@@ -13,6 +14,12 @@ module pair_geometry
   implicit none
   private
   public :: pair_gap, gap_lower_bound, point_box_gap, pair_contact_points, bounding_sphere_boxes, KEY_LENGTH
+  public :: convex_pair, convex_pair_bound
+
+  !> GJK stops when its lower and upper bounds agree to this (relative), or after
+  !> gjk_iterations support points (6.3 on average for boxes, tests/unit/test_convex_distance)
+  real(dp), parameter :: gjk_rel_tol = 1.0e-12_dp
+  integer, parameter :: gjk_iterations = 32
 
   !> A contact's key: global ids of a and b, the feature kind and the two features' ids.
   integer, parameter :: KEY_LENGTH = 7
@@ -68,6 +75,38 @@ contains
       end if
     end associate
   end subroutine pair_gap
+
+  !> Bodies i and j are both convex meshes small enough for GJK's bound (convex_distance):
+  !> where only a lower bound on their gap is needed, convex_pair_bound gives one.
+  pure logical function convex_pair(shapes, bodies, i, j)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i, j
+    associate (si => shapes%shapes(bodies%shape_id(i)), sj => shapes%shapes(bodies%shape_id(j)))
+      convex_pair = si%kind == SHAPE_MESH .and. sj%kind == SHAPE_MESH .and. si%convex .and. sj%convex
+      if (convex_pair) convex_pair = si%mesh%n_nodes <= max_support_vertices .and. &
+                                     sj%mesh%n_nodes <= max_support_vertices
+    end associate
+  end function convex_pair
+
+  !> A certified lower bound on the gap of a convex pair (convex_pair) at the given poses and
+  !> the unit direction (from i to j) along which they are that far apart: GJK's
+  !> (convex_distance). certified = .false. when GJK cannot show them apart (touching hulls):
+  !> the caller then needs pair_gap.
+  pure subroutine convex_pair_bound(shapes, bodies, i, j, xi, qi, xj, qj, gap, normal, certified)
+    type(shape_library_t), intent(in) :: shapes
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i, j
+    real(dp), intent(in) :: xi(3), qi(4), xj(3), qj(4)
+    real(dp), intent(out) :: gap, normal(3)
+    logical, intent(out) :: certified
+    type(convex_bound_t) :: bound
+    call convex_lower_bound(shapes%shapes(bodies%shape_id(i))%mesh%nodes, xi, qi, &
+                            shapes%shapes(bodies%shape_id(j))%mesh%nodes, xj, qj, gjk_rel_tol, gjk_iterations, bound)
+    certified = bound%certified
+    gap = bound%lower
+    normal = bound%normal
+  end subroutine convex_pair_bound
 
   !> A cheap lower bound on the gap between two posed bodies: the larger of (centre distance
   !> minus both bounding radii) and (distance from one body's centre to the other's bounding

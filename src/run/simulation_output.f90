@@ -230,8 +230,8 @@ contains
     end if
     write (*, '(a,i0,a,i0,a,i0,a)') '  time of contact      ', pair_tests, ' pair queries, ', &
       self%collisions%stats%advancement_iterations, ' advancement iterations (', self%collisions%stats%capped, &
-      ' capped, '//str(self%collisions%stats%plane_skips)//' started from a second-order safe time, '// &
-      str(convex_bounds)//' by GJK bounds)'
+      ' capped, '//str(self%collisions%stats%plane_skips)//' started from a second-order safe time), '// &
+      str(convex_bounds)//' GJK bounds in place of queries'
     associate (rest => self%collisions%resting)
       if (rest%stats%passes > 0) then
         write (*, '(a,i0,a,i0,a,i0,a,i0,a)') '  resting contact      ', rest%stats%passes, ' steps, ', &
