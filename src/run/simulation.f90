@@ -90,6 +90,12 @@ module simulation
     real(dp) :: window_end = huge(1.0_dp)     !< the next migration [s]
     real(dp) :: previous_stop = 0.0_dp        !< the last output stop of the local loop [s]
     integer(i8) :: windows = 0                !< windows ended by a migration, this run
+    !> Wall time in window ends on this rank, this run [s]: all of end_window (migration with
+    !> its waits, evaluating arrivals, the local loop brought up to date), and of it the loop's
+    !> part; the pair certificates computed there (the load report's window cost)
+    real(dp) :: window_wall = 0.0_dp
+    real(dp) :: window_loop_wall = 0.0_dp
+    integer(i8) :: window_certificates = 0
     type(migration_stats_t) :: migration
     logical :: restarted = .false.
     !> Why the run stopped before t_end (run_stopped): 0 it did not, 128 + the signal number

@@ -109,6 +109,9 @@ contains
   module procedure end_window
     integer(i8), allocatable :: payload(:, :)
     integer :: i
+    real(dp) :: clock, loop_clock
+    integer(i8) :: certificates_before
+    clock = par%wtime()
     ! every body where it is now: it goes to the owner of its position at the window's end
     if (self%local) call self%events%synchronize(self%bodies, self%propagator, self%time)
     call self%propagator%pack_anchors(self%bodies%n_owned, payload)
@@ -120,6 +123,8 @@ contains
     call self%propagator%unpack_anchors(payload, self%deck%integrator)
     self%windows = self%windows + 1
     if (self%local) then
+      loop_clock = par%wtime()
+      certificates_before = self%events%stats%certificates
       do i = 1, self%bodies%n_owned
         if (.not. self%bodies%fixed(i) .and. self%propagator%is_anchored(i)) &
           call self%propagator%evaluate(self%bodies, i, self%time, self%deck%run%gravity)
@@ -127,9 +132,12 @@ contains
       call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
                             self%deck%integrator, self%time, self%deck%run%dt_max, &
                             min(self%deck%run%t_end, self%next_checkpoint), err, keep_anchors=.true.)
+      self%window_certificates = self%window_certificates + (self%events%stats%certificates - certificates_before)
+      self%window_loop_wall = self%window_loop_wall + (par%wtime() - loop_clock)
       if (err%failed()) return
     end if
     self%window_end = self%time + motion_window(self, par)
+    self%window_wall = self%window_wall + (par%wtime() - clock)
   end procedure end_window
 
 end submodule simulation_windows
