@@ -11,7 +11,8 @@ migrated, migration messages and bytes, and the cost of a window's end from the 
 `window ends` line: the slowest rank's wall time in window ends per window (the migration
 with its waits, and the local loop brought up to date: `loop` is that part alone) and the
 pair certificates computed at window ends per window (all ranks), against the run's
-certificates. Frames are off (outputs only at the end).
+certificates (the summary's `pair certificates` line: rank 0's). Frames are off (outputs
+only at the end).
 
     .venv/bin/python tools/bench_decomposition.py                    # 10^4 and 10^5 bodies, np 1 2 4
     .venv/bin/python tools/bench_decomposition.py --n 20000 --ranks 1 2
@@ -104,7 +105,7 @@ def main():
              f"Machine: {platform.node()} ({os.cpu_count()} cores), {time.strftime('%Y-%m-%d')}; "
              f"t_end = {args.t_end} s, lattice velocity ({3 * args.speed:g}, {args.speed:g}, {0.5 * args.speed:g}) m/s, no frames. Stepping wall from the end-of-run summary.", "",
              "| bodies | ranks | bricks | process [s] | run wall [s] | start-up [s] | windows | bodies migrated | messages | bytes "
-             "| per window [ms] | of it the loop [ms] | certificates per window | certificates in the run |",
+             "| per window [ms] | of it the loop [ms] | certificates per window | certificates in the run (rank 0) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for n in args.n:
         text, n_bodies = deck_text(n, args.t_end, args.speed)
