@@ -7,10 +7,12 @@ ends with a migration.
 
 For each body count and rank count: wall time of the whole process, of the run and of its
 start-up (both from the summary; the start-up is the slowest rank's), windows, bodies
-migrated, migration messages and bytes, and the time per window (stepping wall / windows:
-the migration, its reductions and the loop's rebuild, since free flight costs nothing
-between outputs). Frames are off (outputs only at the end)
-so the figure is the window's.
+migrated, migration messages and bytes, and the cost of a window's end from the summary's
+`window ends` line: the slowest rank's wall time in window ends per window (the migration
+with its waits, and the local loop brought up to date: `loop` is that part alone) and the
+pair certificates computed at window ends per window (all ranks), against the run's
+certificates (the summary's `pair certificates` line: rank 0's). Frames are off (outputs
+only at the end).
 
     .venv/bin/python tools/bench_decomposition.py                    # 10^4 and 10^5 bodies, np 1 2 4
     .venv/bin/python tools/bench_decomposition.py --n 20000 --ranks 1 2
@@ -81,6 +83,10 @@ def run(exe, deck, ranks, out):
         "bytes": get(r"(\d+) bytes", int) or 0,
         "decomposed": "domain decomposition" in text,
         "dims": get(r"decomposition (\d+ x \d+ x \d+)", str),
+        "window_wall": get(r"window ends\s+([0-9.eE+-]+) s"),
+        "window_loop": get(r"brought up to date ([0-9.eE+-]+) s"),
+        "window_certs": get(r"(\d+) pair certificates computed there", int),
+        "certs": get(r"pair certificates\s+(\d+) \(", int),
     }
     return row
 
@@ -98,8 +104,9 @@ def main():
     lines = ["# Domain decomposition: cost per window (tools/bench_decomposition.py)", "",
              f"Machine: {platform.node()} ({os.cpu_count()} cores), {time.strftime('%Y-%m-%d')}; "
              f"t_end = {args.t_end} s, lattice velocity ({3 * args.speed:g}, {args.speed:g}, {0.5 * args.speed:g}) m/s, no frames. Stepping wall from the end-of-run summary.", "",
-             "| bodies | ranks | bricks | process [s] | run wall [s] | start-up [s] | windows | bodies migrated | messages | bytes | per window [ms] |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| bodies | ranks | bricks | process [s] | run wall [s] | start-up [s] | windows | bodies migrated | messages | bytes "
+             "| per window [ms] | of it the loop [ms] | certificates per window | certificates in the run (rank 0) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for n in args.n:
         text, n_bodies = deck_text(n, args.t_end, args.speed)
         deck = os.path.join(work, f"free_{n}.nml")
@@ -108,10 +115,14 @@ def main():
         for ranks in args.ranks:
             out = os.path.join(work, f"out_{n}_{ranks}")
             r = run(args.exe, deck, ranks, out)
-            per = 1e3 * r["wall"] / r["windows"] if r["windows"] else float("nan")
+            w = r["windows"]
+            per = f"{1e3 * r['window_wall'] / w:.1f}" if w and r["window_wall"] is not None else "-"
+            loop = f"{1e3 * r['window_loop'] / w:.1f}" if w and r["window_loop"] is not None else "-"
+            certs = f"{r['window_certs'] / w:.0f}" if w and r["window_certs"] is not None else "-"
             startup = f"{r['startup']:.3f}" if r["startup"] is not None else "-"
             lines.append(f"| {n_bodies} | {ranks} | {r['dims'] or '1 (not split)'} | {r['process']:.2f} | {r['wall']:.3f} | {startup} | "
-                         f"{r['windows']} | {r['migrated']} | {r['messages']} | {r['bytes']} | {per:.3f} |")
+                         f"{w} | {r['migrated']} | {r['messages']} | {r['bytes']} | {per} | {loop} | {certs} | "
+                         f"{r['certs'] if r['certs'] is not None else '-'} |")
             print(lines[-1], flush=True)
             shutil.rmtree(out, ignore_errors=True)
     shutil.rmtree(work, ignore_errors=True)

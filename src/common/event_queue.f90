@@ -33,6 +33,7 @@ module event_queue
     procedure :: pop => queue_pop
     procedure :: time_of => queue_time_of
     procedure :: check_heap => queue_check_heap
+    procedure :: remap_handles => queue_remap_handles
   end type event_queue_t
 
 contains
@@ -144,6 +145,54 @@ contains
     t = self%time(handle)
     call self%remove(handle)
   end subroutine queue_pop
+
+  !> The handles were renumbered (the bodies of a rank after a migration): handle h is now
+  !> new_index(h), 0 if it is gone; capacity: handles expected from now on. Every kept entry
+  !> keeps its time and tie-breaks; the heap is rebuilt in place (Floyd, O(n)), since the
+  !> handle is the order's last tie-break.
+  subroutine queue_remap_handles(self, new_index, capacity)
+    class(event_queue_t), intent(inout) :: self
+    integer, intent(in) :: new_index(:)
+    integer, intent(in) :: capacity
+    integer, allocatable :: heap(:)
+    real(dp), allocatable :: time(:)
+    integer(i8), allocatable :: tie(:, :)
+    integer :: p, h, nh, n, c
+    if (.not. allocated(self%heap)) then
+      call self%init(capacity)
+      return
+    end if
+    c = max(capacity, 16)
+    do p = 1, self%n
+      h = self%heap(p)
+      if (h <= size(new_index)) c = max(c, new_index(h))
+    end do
+    allocate (heap(c), time(c), tie(2, c))
+    n = 0
+    do p = 1, self%n
+      h = self%heap(p)
+      nh = 0
+      if (h <= size(new_index)) nh = new_index(h)
+      if (nh == 0) cycle
+      n = n + 1
+      heap(n) = nh
+      time(nh) = self%time(h)
+      tie(:, nh) = self%tie(:, h)
+    end do
+    call move_alloc(heap, self%heap)
+    call move_alloc(time, self%time)
+    call move_alloc(tie, self%tie)
+    deallocate (self%pos)
+    allocate (self%pos(c))
+    self%pos = 0
+    self%n = n
+    do p = 1, n
+      self%pos(self%heap(p)) = p
+    end do
+    do p = n/2, 1, -1
+      call sift_down(self, p)
+    end do
+  end subroutine queue_remap_handles
 
   !> The heap property and the position index hold (tests).
   pure logical function queue_check_heap(self) result(ok)

@@ -54,6 +54,7 @@ module cell_grid
     procedure :: unplace => cells_unplace
     procedure :: query => cells_query
     procedure :: grow_bodies => cells_grow_bodies
+    procedure :: remap_bodies => cells_remap_bodies
     procedure :: overlaps => cells_overlaps
   end type cell_grid_t
 
@@ -120,6 +121,75 @@ contains
     call move_alloc(k1, self%lo); call move_alloc(k2, self%hi)
     call move_alloc(m, self%mark)
   end subroutine cells_grow_bodies
+
+  !> The bodies were renumbered (a migration): body i is now new_index(i), 0 if it left, of
+  !> n_bodies. Bodies that stayed keep their regions and boxes; those that left are taken
+  !> out; the others (arrivals) are not placed (the caller places them). The boxes' lists
+  !> are renamed in place, so the cost is that of the boxes held, not of placing again.
+  subroutine cells_remap_bodies(self, new_index, n_bodies)
+    class(cell_grid_t), intent(inout) :: self
+    integer, intent(in) :: new_index(:)
+    integer, intent(in) :: n_bodies
+    logical, allocatable :: placed(:), large(:)
+    real(dp), allocatable :: lower(:, :), upper(:, :)
+    integer(i8), allocatable :: lo(:, :), hi(:, :)
+    integer :: i, ni, s, k, kept
+    allocate (placed(n_bodies), large(n_bodies), lower(3, n_bodies), upper(3, n_bodies), lo(3, n_bodies), &
+              hi(3, n_bodies))
+    placed = .false.
+    large = .false.
+    lower = 0.0_dp
+    upper = 0.0_dp
+    lo = 0
+    hi = 0
+    do i = 1, min(size(new_index), size(self%placed))
+      ni = new_index(i)
+      if (ni == 0) cycle
+      placed(ni) = self%placed(i)
+      large(ni) = self%large(i)
+      lower(:, ni) = self%lower(:, i)
+      upper(:, ni) = self%upper(:, i)
+      lo(:, ni) = self%lo(:, i)
+      hi(:, ni) = self%hi(:, i)
+    end do
+    do s = 1, self%table_size
+      if (.not. self%slot_used(s)) cycle
+      associate (cell => self%cells(s))
+        kept = 0
+        do k = 1, cell%n
+          ni = renamed(cell%ids(k))
+          if (ni == 0) cycle
+          kept = kept + 1
+          cell%ids(kept) = ni
+        end do
+        cell%n = kept
+      end associate
+    end do
+    kept = 0
+    do k = 1, self%n_large
+      ni = renamed(self%large_ids(k))
+      if (ni == 0) cycle
+      kept = kept + 1
+      self%large_ids(kept) = ni
+    end do
+    self%n_large = kept
+    call move_alloc(placed, self%placed)
+    call move_alloc(large, self%large)
+    call move_alloc(lower, self%lower)
+    call move_alloc(upper, self%upper)
+    call move_alloc(lo, self%lo)
+    call move_alloc(hi, self%hi)
+    deallocate (self%mark)
+    allocate (self%mark(n_bodies))
+    self%mark = 0
+    self%mark_stamp = 0
+  contains
+    integer function renamed(id)
+      integer, intent(in) :: id
+      renamed = 0
+      if (id >= 1 .and. id <= size(new_index)) renamed = new_index(id)
+    end function renamed
+  end subroutine cells_remap_bodies
 
   !> Places body i with the region [lower, upper] [m] (moving it if placed before).
   subroutine cells_place(self, i, lower, upper, err)

@@ -124,6 +124,7 @@ module collision_stage
     procedure :: drop_events => stage_drop_events
     procedure :: wake_all => stage_wake_all
     procedure :: reserve_table => stage_reserve_table
+    procedure :: remap_bodies => stage_remap_bodies
   end type collision_stage_t
 
   ! The jobs' procedures (docs/contact.md, "One step"), each in its submodule's file.
@@ -170,6 +171,15 @@ module collision_stage
       class(collision_stage_t), intent(inout) :: self
       integer, intent(in) :: m, n
     end subroutine stage_reserve_table
+
+    !> The bodies were renumbered (a migration): body i is now new_index(i), 0 if it left,
+    !> of n. What the stage keeps per body between steps (sleeping, the last pass's velocity
+    !> changes) follows the bodies that stayed; the step's per-body work arrays are sized for n.
+    module subroutine stage_remap_bodies(self, new_index, n)
+      class(collision_stage_t), intent(inout) :: self
+      integer, intent(in) :: new_index(:)
+      integer, intent(in) :: n
+    end subroutine stage_remap_bodies
 
     ! collision_stage_correction.f90
     !> Opens the candidate pairs settled below 3/4 of the minimum separation.

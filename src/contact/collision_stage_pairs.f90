@@ -233,4 +233,15 @@ contains
     end if
   end subroutine stage_reserve_table
 
+  module subroutine stage_remap_bodies(self, new_index, n)
+    class(collision_stage_t), intent(inout) :: self
+    integer, intent(in) :: new_index(:)
+    integer, intent(in) :: n
+    call self%sleep%remap_bodies(new_index, n)
+    call self%resting%remap_bodies(new_index, n)
+    ! (travel bounds and turning of the step being set up: written before each use)
+    if (allocated(self%grid_margin)) deallocate (self%grid_margin, self%turn)
+    call self%reserve_table(16, n)
+  end subroutine stage_remap_bodies
+
 end submodule collision_stage_pairs

@@ -42,6 +42,7 @@ module islands
     procedure :: add => table_add
     procedure :: remove => table_remove
     procedure :: append => table_append
+    procedure :: remap_bodies => table_remap_bodies
   end type island_table_t
 
 contains
@@ -108,6 +109,38 @@ contains
       isl%n = isl%n + size(members)
     end associate
   end subroutine table_append
+
+  !> The bodies were renumbered (a migration): body i is now new_index(i), 0 if it left.
+  !> Every live island's members and band pairs are renamed, each island keeping its slot
+  !> and clock, if none of them left; otherwise nothing is changed and kept is false (an
+  !> island split between ranks: the caller ends it another way).
+  subroutine table_remap_bodies(self, new_index, kept)
+    class(island_table_t), intent(inout) :: self
+    integer, intent(in) :: new_index(:)
+    logical, intent(out) :: kept
+    integer :: slot, k
+    kept = .true.
+    if (.not. allocated(self%islands)) return
+    do slot = 1, self%n_slots
+      associate (isl => self%islands(slot))
+        if (.not. isl%live) cycle
+        if (any(new_index(isl%members(1:isl%n)) == 0)) kept = .false.
+        do k = 1, isl%n_band_pairs
+          if (any(new_index(isl%band_pairs(:, k)) == 0)) kept = .false.
+        end do
+      end associate
+      if (.not. kept) return
+    end do
+    do slot = 1, self%n_slots
+      associate (isl => self%islands(slot))
+        if (.not. isl%live) cycle
+        isl%members(1:isl%n) = new_index(isl%members(1:isl%n))
+        do k = 1, isl%n_band_pairs
+          isl%band_pairs(:, k) = new_index(isl%band_pairs(:, k))
+        end do
+      end associate
+    end do
+  end subroutine table_remap_bodies
 
   subroutine table_remove(self, slot)
     class(island_table_t), intent(inout) :: self

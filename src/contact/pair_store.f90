@@ -51,6 +51,7 @@ module pair_store
     procedure :: partner => store_partner
     procedure :: current => store_current
     procedure :: grow_bodies => store_grow_bodies
+    procedure :: remap_bodies => store_remap_bodies
     procedure :: check => store_check
   end type pair_store_t
 
@@ -100,6 +101,85 @@ contains
     call move_alloc(head, self%head)
     call move_alloc(degree, self%degree)
   end subroutine store_grow_bodies
+
+  !> The bodies were renumbered (a migration: docs/architecture.md, "Migration"): body i is
+  !> now new_index(i), 0 if it left, of n_bodies. Every pair of two bodies that stayed keeps
+  !> its slot and everything in it (certificate, stamp, gap, action: bodies keep their
+  !> global ids, so a stays the lower one); a pair with a body that left is dropped, its slot
+  !> freed and listed in dropped(1:n_dropped), in increasing slot order (their queue entries
+  !> are the caller's). Each body's list keeps the order of its remaining pairs. O(pairs).
+  subroutine store_remap_bodies(self, new_index, n_bodies, dropped, n_dropped)
+    class(pair_store_t), intent(inout) :: self
+    integer, intent(in) :: new_index(:)
+    integer, intent(in) :: n_bodies
+    integer, allocatable, intent(out) :: dropped(:)
+    integer, intent(out) :: n_dropped
+    integer, allocatable :: head(:), degree(:), tail(:), next(:, :)
+    integer :: i, slot, ni, old_a, old_b
+    logical, allocatable :: keep(:)
+    allocate (keep(self%n_slots), head(max(n_bodies, 1)), degree(max(n_bodies, 1)), tail(max(n_bodies, 1)), &
+              next(2, size(self%a)), dropped(16))
+    head = 0
+    degree = 0
+    tail = 0
+    next = 0
+    n_dropped = 0
+    do slot = 1, self%n_slots
+      keep(slot) = .false.
+      if (self%a(slot) == 0) cycle
+      keep(slot) = new_index(self%a(slot)) > 0 .and. new_index(self%b(slot)) > 0
+    end do
+    ! the lists again, each in its old order, through the kept slots only (the old links are
+    ! read while the new ones are written apart)
+    do i = 1, size(new_index)
+      ni = new_index(i)
+      if (ni == 0 .or. i > size(self%head)) cycle
+      slot = self%head(i)
+      do while (slot > 0)
+        if (keep(slot)) then
+          if (tail(ni) == 0) then
+            head(ni) = slot
+          else if (next_side(tail(ni), ni) == 1) then
+            next(1, tail(ni)) = slot
+          else
+            next(2, tail(ni)) = slot
+          end if
+          tail(ni) = slot
+          degree(ni) = degree(ni) + 1
+        end if
+        slot = self%next_of(slot, i)
+      end do
+    end do
+    do slot = 1, self%n_slots
+      if (self%a(slot) == 0) cycle
+      old_a = self%a(slot)
+      old_b = self%b(slot)
+      if (keep(slot)) then
+        self%a(slot) = new_index(old_a)
+        self%b(slot) = new_index(old_b)
+      else
+        self%a(slot) = 0
+        self%b(slot) = 0
+        if (self%n_free == size(self%free_slots)) call grow_free(self)
+        self%n_free = self%n_free + 1
+        self%free_slots(self%n_free) = slot
+        self%n_live = self%n_live - 1
+        if (n_dropped == size(dropped)) call grow_int(dropped, 2*size(dropped))
+        n_dropped = n_dropped + 1
+        dropped(n_dropped) = slot
+      end if
+    end do
+    self%next = next
+    call move_alloc(head, self%head)
+    call move_alloc(degree, self%degree)
+  contains
+    !> Which of the new links of slot s (1: a's, 2: b's) belongs to new body nb's list.
+    integer function next_side(s, nb)
+      integer, intent(in) :: s, nb
+      next_side = 2
+      if (new_index(self%a(s)) == nb) next_side = 1
+    end function next_side
+  end subroutine store_remap_bodies
 
   !> A new pair of bodies i and j (gid_i, gid_j: their global ids; the lower one becomes a).
   !> Returns its slot. The caller makes sure the pair is not held yet (find).

@@ -78,6 +78,7 @@ module resting_contact
     type(impulse_stats_t) :: exact
   contains
     procedure :: solve => resting_solve
+    procedure :: remap_bodies => resting_remap_bodies
     procedure :: forget => resting_forget
   end type resting_contact_t
 
@@ -292,6 +293,34 @@ contains
       if (any(dv /= 0.0_dp)) self%stats%loaded = self%stats%loaded + 1
     end do
   end subroutine resting_solve
+
+  !> The bodies were renumbered (a migration): body i is now new_index(i), 0 if it left, of
+  !> n bodies. The velocity changes of the last pass follow the bodies that stayed (an
+  !> island's step cut later takes its unused part back from them); the warm starts are
+  !> keyed by global ids and need nothing.
+  subroutine resting_remap_bodies(self, new_index, n)
+    class(resting_contact_t), intent(inout) :: self
+    integer, intent(in) :: new_index(:)
+    integer, intent(in) :: n
+    real(dp), allocatable :: dv(:, :), dw(:, :)
+    integer :: i, ni
+    if (allocated(self%dv)) then
+      allocate (dv(3, n), dw(3, n))
+      dv = 0.0_dp
+      dw = 0.0_dp
+      do i = 1, min(size(new_index), size(self%dv, 2))
+        ni = new_index(i)
+        if (ni == 0) cycle
+        dv(:, ni) = self%dv(:, i)
+        dw(:, ni) = self%dw(:, i)
+      end do
+      call move_alloc(dv, self%dv)
+      call move_alloc(dw, self%dw)
+    end if
+    ! (false between calls: only its size matters)
+    if (allocated(self%involved)) deallocate (self%involved)
+    call ensure_involved(self, n)
+  end subroutine resting_remap_bodies
 
   !> The per-body flag array of resting_solve, all false between calls (set and cleared for
   !> the bodies of each pass only).

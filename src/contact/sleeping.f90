@@ -42,6 +42,7 @@ module sleeping
     procedure :: wake_touching => sleep_wake_touching
     procedure :: wake_island_of => sleep_wake_island_of
     procedure :: wake_all => sleep_wake_all
+    procedure :: remap_bodies => sleep_remap_bodies
   end type sleep_t
 
 contains
@@ -61,6 +62,37 @@ contains
     self%inv_inertia = 0.0_dp
     self%n_asleep = 0
   end subroutine sleep_init
+
+  !> The bodies were renumbered (a migration): body i is now new_index(i), 0 if it left, of
+  !> n bodies. Bodies that stayed keep their quiet times and sleeping islands; arrivals start
+  !> awake and quiet for no time (as at a restart). (An asleep body does not move, so it does
+  !> not change rank: every asleep body stays.)
+  subroutine sleep_remap_bodies(self, new_index, n)
+    class(sleep_t), intent(inout) :: self
+    integer, intent(in) :: new_index(:)
+    integer, intent(in) :: n
+    real(dp), allocatable :: quiet(:), inv_mass(:), inv_inertia(:, :)
+    integer(i8), allocatable :: island(:)
+    integer :: i, ni
+    if (.not. allocated(self%quiet)) return
+    allocate (quiet(n), island(n), inv_mass(n), inv_inertia(3, n))
+    quiet = 0.0_dp
+    island = 0
+    inv_mass = 0.0_dp
+    inv_inertia = 0.0_dp
+    do i = 1, min(size(new_index), size(self%quiet))
+      ni = new_index(i)
+      if (ni == 0) cycle
+      quiet(ni) = self%quiet(i)
+      island(ni) = self%island(i)
+      inv_mass(ni) = self%inv_mass(i)
+      inv_inertia(:, ni) = self%inv_inertia(:, i)
+    end do
+    call move_alloc(quiet, self%quiet)
+    call move_alloc(island, self%island)
+    call move_alloc(inv_mass, self%inv_mass)
+    call move_alloc(inv_inertia, self%inv_inertia)
+  end subroutine sleep_remap_bodies
 
   pure logical function sleep_enabled(self)
     class(sleep_t), intent(in) :: self

@@ -115,6 +115,7 @@ module event_loop
     integer, allocatable :: found(:)
   contains
     procedure :: init => loop_init
+    procedure :: remap_bodies => loop_remap_bodies
     procedure :: run_until => loop_run_until
     procedure :: synchronize => loop_synchronize
     procedure :: next_event_time => loop_next_event_time
@@ -244,6 +245,185 @@ contains
     self%island_of(seeds(1:n_seeds)) = slot
     call self%island_queue%set(slot, t, bodies%gid(seeds(1)), 0_i8)
   end subroutine loop_init
+
+  !> After a migration changed which bodies this rank holds, at time t (docs/architecture.md,
+  !> "The loop through a migration"): body i is now new_index(i), 0 if it left; versions(k)
+  !> is the trajectory version of row k now (migration carried it with the body); every
+  !> moving body's state in bodies is its anchor evaluated at t. Instead of building the loop
+  !> again (init), what the bodies that stayed have is kept: their anchors, versions,
+  !> regions and grid boxes, box-crossing times, islands with their clocks, and every pair of
+  !> two of them with its certificate and queue entry (renamed, not computed again). Pairs
+  !> with a body that left are dropped; arrivals are placed in the grid and their pairs made
+  !> and certified, and with contact passes an arrival within reach of one takes an island
+  !> step at t, as init's bodies do. The cost is that of the arrivals' pairs plus renaming
+  !> O(bodies + pairs), not one certificate per pair.
+  !> An island that lost a member or a band pair's body (split between ranks) cannot go on
+  !> here: then the loop is built again as init builds it (keep_anchors), the rule before
+  !> this existed, and rebuilt is true.
+  subroutine loop_remap_bodies(self, stage, bodies, shapes, flight, new_index, versions, t, t_hard, err, rebuilt)
+    class(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: new_index(:)
+    integer(i8), intent(in) :: versions(:)
+    real(dp), intent(in) :: t, t_hard
+    type(error_t), intent(inout) :: err
+    logical, intent(out) :: rebuilt
+    integer :: n, i, ni, k, j, slot, n_found, n_new_slots, n_moved, n_kept_now, n_seeds
+    integer, allocatable :: old_of(:), dropped(:), new_slots(:), moved(:), seeds(:)
+    integer(i8), allocatable :: changes(:)
+    real(dp), allocatable :: expiry(:), region_x(:, :), released_at(:)
+    integer, allocatable :: island_of(:)
+    logical :: kept
+    n = bodies%n_owned + bodies%n_ghost
+    rebuilt = .false.
+    call self%islands%remap_bodies(new_index, kept)
+    if (.not. kept) then
+      rebuilt = .true.
+      allocate (changes(max(n, 1)))
+      changes = 0
+      do i = 1, min(size(new_index), size(self%changes))
+        if (new_index(i) > 0) changes(new_index(i)) = self%changes(i)
+      end do
+      call move_alloc(changes, self%changes)
+      if (allocated(self%version)) deallocate (self%version)
+      allocate (self%version(max(n, 1)))
+      self%version = 0
+      self%version(1:n) = versions(1:n)
+      call stage%remap_bodies(new_index, n)
+      call self%init(stage, bodies, shapes, flight, self%gravity, self%config, t, self%dt_max, t_hard, err, &
+                     keep_anchors=.true.)
+      return
+    end if
+    self%time = t
+    self%t_hard = t_hard
+    ! the per-body arrays follow their bodies; arrivals (old_of = 0) start as init starts a body
+    allocate (old_of(n))
+    old_of = 0
+    do i = 1, size(new_index)
+      if (new_index(i) > 0) old_of(new_index(i)) = i
+    end do
+    allocate (changes(max(n, 1)), expiry(n), region_x(3, n), island_of(n), released_at(n))
+    do ni = 1, n
+      i = old_of(ni)
+      if (i > 0) then
+        changes(ni) = self%changes(i)
+        expiry(ni) = self%expiry(i)
+        region_x(:, ni) = self%region_x(:, i)
+        island_of(ni) = self%island_of(i)
+        released_at(ni) = self%released_at(i)
+      else
+        changes(ni) = 0
+        expiry(ni) = far_future
+        region_x(:, ni) = bodies%x(:, ni)
+        island_of(ni) = 0
+        released_at(ni) = -far_future
+      end if
+    end do
+    call move_alloc(changes, self%changes)
+    call move_alloc(expiry, self%expiry)
+    call move_alloc(region_x, self%region_x)
+    call move_alloc(island_of, self%island_of)
+    call move_alloc(released_at, self%released_at)
+    deallocate (self%version, self%state_time, self%mark)
+    allocate (self%version(max(n, 1)), self%state_time(n), self%mark(n))
+    self%version = 0
+    self%version(1:n) = versions(1:n)
+    self%state_time = t
+    self%mark = 0
+    do ni = 1, n
+      if (old_of(ni) == 0 .and. .not. bodies%fixed(ni)) self%version(ni) = self%version(ni) + 1
+    end do
+    ! the grid, the pairs and the queues renamed; pairs with a body that left dropped
+    call self%cells%remap_bodies(new_index, n)
+    call self%pairs%remap_bodies(new_index, n, dropped, k)
+    do j = 1, k
+      call self%pair_queue%remove(dropped(j))
+    end do
+    if (self%n_impacts_now > 0) then
+      n_kept_now = 0
+      do j = 1, self%n_impacts_now
+        if (self%pairs%a(self%impacts_now(j)) == 0) cycle
+        n_kept_now = n_kept_now + 1
+        self%impacts_now(n_kept_now) = self%impacts_now(j)
+      end do
+      self%n_impacts_now = n_kept_now
+    end if
+    if (allocated(self%pair_mark)) self%pair_mark = 0
+    call self%body_queue%remap_handles(new_index, n)
+    call stage%remap_bodies(new_index, n)
+    ! arrivals anchored (a body in flight between events is) and placed, and their pairs made
+    ! (static-static pairs never are)
+    allocate (moved(16), new_slots(16))
+    n_moved = 0
+    n_new_slots = 0
+    do ni = 1, n
+      if (old_of(ni) > 0) cycle
+      if (.not. bodies%fixed(ni)) then
+        if (.not. flight%is_anchored(ni)) call flight%anchor_at(bodies, ni, t)
+        call push(moved, n_moved, ni)
+      end if
+      call place(self, bodies, shapes, ni, err)
+      if (err%failed()) return
+    end do
+    do ni = 1, n
+      if (old_of(ni) > 0) cycle
+      call self%cells%query(ni, self%found, n_found, n)
+      do k = 1, n_found
+        j = self%found(k)
+        if (bodies%fixed(ni) .and. bodies%fixed(j)) cycle
+        if (self%pairs%find(ni, j) > 0) cycle
+        slot = self%pairs%add(ni, j, bodies%gid(ni), bodies%gid(j))
+        call push(new_slots, n_new_slots, slot)
+      end do
+    end do
+    call ensure_pair_marks(self)
+    call sort_slots(self, bodies, new_slots, n_new_slots)
+    do k = 1, n_new_slots
+      call certify(self, stage, bodies, shapes, flight, new_slots(k), t, err)
+      if (err%failed()) return
+    end do
+    ! (a guard: a body that stayed holds an anchor between events; one without is anchored
+    ! at t, a new trajectory, placed again and all of its pairs certified from t)
+    do ni = 1, n
+      if (old_of(ni) == 0 .or. bodies%fixed(ni)) cycle
+      if (flight%is_anchored(ni)) cycle
+      call flight%anchor_at(bodies, ni, t)
+      self%version(ni) = self%version(ni) + 1
+      call replace(self, stage, bodies, shapes, flight, ni, t, err)
+      if (err%failed()) return
+      call certify_pairs_of(self, stage, bodies, shapes, flight, [ni], t, err)
+      if (err%failed()) return
+      call push(moved, n_moved, ni)
+    end do
+    do k = 1, n_moved
+      call schedule_crossing(self, bodies, flight, moved(k), t)
+    end do
+    if (self%use_pass) then
+      ! arrivals within reach of a contact pass take an island step at t, as init's bodies do
+      allocate (seeds(n_moved))
+      n_seeds = 0
+      do k = 1, n_moved
+        i = moved(k)
+        if (self%island_of(i) /= 0 .or. old_of(i) > 0) cycle
+        if (has_pass_pair(self, stage, bodies, shapes, flight, i, t)) then
+          n_seeds = n_seeds + 1
+          seeds(n_seeds) = i
+        end if
+      end do
+      if (n_seeds > 0) then
+        slot = self%islands%add(seeds(1:n_seeds), t, 0.0_dp, 0.0_dp)
+        if (allocated(self%islands%islands(slot)%band_pairs)) deallocate (self%islands%islands(slot)%band_pairs)
+        allocate (self%islands%islands(slot)%band_pairs(2, 1))
+        self%islands%islands(slot)%n_band_pairs = 0
+        self%island_of(seeds(1:n_seeds)) = slot
+        call self%island_queue%set(slot, t, bodies%gid(seeds(1)), 0_i8)
+      end if
+    end if
+    if (self%config%audit_certificates) call audit_certificates(self, bodies, t, err)
+  end subroutine loop_remap_bodies
 
   !> The earliest pending event of any kind [s] (far_future if none).
   pure real(dp) function loop_next_event_time(self) result(t)

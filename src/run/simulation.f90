@@ -90,6 +90,15 @@ module simulation
     real(dp) :: window_end = huge(1.0_dp)     !< the next migration [s]
     real(dp) :: previous_stop = 0.0_dp        !< the last output stop of the local loop [s]
     integer(i8) :: windows = 0                !< windows ended by a migration, this run
+    !> Wall time in window ends on this rank, this run [s]: all of end_window (migration with
+    !> its waits, evaluating arrivals, the local loop brought up to date), and of it the loop's
+    !> part; the pair certificates computed there (the load report's window cost)
+    real(dp) :: window_wall = 0.0_dp
+    real(dp) :: window_loop_wall = 0.0_dp
+    integer(i8) :: window_certificates = 0
+    !> Window ends at which an island split between ranks made the local loop be built
+    !> again (event_loop%remap_bodies), this rank
+    integer(i8) :: window_rebuilds = 0
     type(migration_stats_t) :: migration
     logical :: restarted = .false.
     !> Why the run stopped before t_end (run_stopped): 0 it did not, 128 + the signal number
@@ -136,8 +145,9 @@ module simulation
       type(parallel_t), intent(in) :: par
     end function motion_window
     !> A window's end: every body goes to the rank of its brick with its flight record (the
-    !> anchor: trajectories go on bit for bit), then the local loop is built again over the
-    !> bodies this rank now holds, keeping their anchors.
+    !> anchor: trajectories go on bit for bit) and its trajectory version, then the local
+    !> loop follows the bodies (event_loop%remap_bodies: certificates of pairs that stayed
+    !> kept, arrivals certified; built again, keeping anchors, if an island was split).
     module subroutine end_window(self, par, err)
       type(simulation_t), intent(inout) :: self
       type(parallel_t), intent(in) :: par

@@ -142,8 +142,9 @@ contains
   end procedure fill_meta
 
   module procedure simulation_summary
-    real(dp) :: wall, per_step, min_sep, load(3, 3), startup
-    integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages, convex_bounds
+    real(dp) :: wall, per_step, min_sep, load(3, 3), startup, window_wall, window_loop_wall
+    integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages, window_certificates, window_rebuilds
+    integer(i8) :: convex_bounds
     wall = par%wtime() - self%wall_start
     ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
     ! time (everything but waiting in collectives is not split out yet: the run's wall time).
@@ -156,6 +157,10 @@ contains
     migrated = par%sum(self%migration%bodies_left)
     bytes = par%sum(self%migration%bytes_sent)
     messages = par%sum(self%migration%messages_sent)
+    window_wall = par%max(self%window_wall)
+    window_loop_wall = par%max(self%window_loop_wall)
+    window_certificates = par%sum(self%window_certificates)
+    window_rebuilds = par%sum(self%window_rebuilds)
     ! Over every rank (collective, before rank 0 alone goes on to print).
     events = par%sum(self%collisions%stats%events)
     contacts = par%sum(self%collisions%stats%contacts)
@@ -197,6 +202,11 @@ contains
       if (self%decomposed) then
         write (*, '(a)') '  windows              '//str(self%windows)//' ended by a migration: '//str(migrated)// &
           ' bodies changed rank, '//str(messages)//' messages, '//str(bytes)//' bytes'
+        ! (the slowest rank's times: the others wait for it at the next collective)
+        write (*, '(a)') '  window ends          '//str(window_wall, '(es9.3)')//' s (slowest rank; of it the '// &
+          'local loop brought up to date '//str(window_loop_wall, '(es9.3)')//' s), '//str(window_certificates)// &
+          ' pair certificates computed there (all ranks), '//str(window_rebuilds)// &
+          ' loops built again for an island split between ranks'
       else
         write (*, '(a)') '  windows              none: every body on rank 0 (bodies may interact)'
       end if

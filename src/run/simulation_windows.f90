@@ -107,12 +107,24 @@ contains
   end procedure motion_window
 
   module procedure end_window
-    integer(i8), allocatable :: payload(:, :)
+    integer(i8), allocatable :: payload(:, :), versions(:)
+    integer, allocatable :: new_index(:)
     integer :: i
+    logical :: rebuilt
+    real(dp) :: clock, loop_clock
+    integer(i8) :: certificates_before
+    clock = par%wtime()
     ! every body where it is now: it goes to the owner of its position at the window's end
     if (self%local) call self%events%synchronize(self%bodies, self%propagator, self%time)
     call self%propagator%pack_anchors(self%bodies%n_owned, payload)
-    call migrate_bodies(par, self%dom, self%bodies, err, stats=self%migration, payload=payload)
+    ! (the trajectory versions travel with the bodies: the local loop keeps its certificates)
+    if (self%local) then
+      versions = self%events%version(1:self%bodies%n_owned)
+      call migrate_bodies(par, self%dom, self%bodies, err, versions=versions, new_index=new_index, &
+                          stats=self%migration, payload=payload)
+    else
+      call migrate_bodies(par, self%dom, self%bodies, err, stats=self%migration, payload=payload)
+    end if
     if (par%any(err%failed())) then
       if (err%ok()) call err%set(ERR_INTERNAL, 'migration failed on another rank')
       return
@@ -120,16 +132,23 @@ contains
     call self%propagator%unpack_anchors(payload, self%deck%integrator)
     self%windows = self%windows + 1
     if (self%local) then
+      loop_clock = par%wtime()
+      certificates_before = self%events%stats%certificates
       do i = 1, self%bodies%n_owned
         if (.not. self%bodies%fixed(i) .and. self%propagator%is_anchored(i)) &
           call self%propagator%evaluate(self%bodies, i, self%time, self%deck%run%gravity)
       end do
-      call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
-                            self%deck%integrator, self%time, self%deck%run%dt_max, &
-                            min(self%deck%run%t_end, self%next_checkpoint), err, keep_anchors=.true.)
+      ! the loop follows the bodies: what stayed keeps its certificates, islands and queue
+      ! entries, arrivals are placed and certified (event_loop%remap_bodies)
+      call self%events%remap_bodies(self%collisions, self%bodies, self%shapes, self%propagator, new_index, versions, &
+                                    self%time, min(self%deck%run%t_end, self%next_checkpoint), err, rebuilt)
+      if (rebuilt) self%window_rebuilds = self%window_rebuilds + 1
+      self%window_certificates = self%window_certificates + (self%events%stats%certificates - certificates_before)
+      self%window_loop_wall = self%window_loop_wall + (par%wtime() - loop_clock)
       if (err%failed()) return
     end if
     self%window_end = self%time + motion_window(self, par)
+    self%window_wall = self%window_wall + (par%wtime() - clock)
   end procedure end_window
 
 end submodule simulation_windows

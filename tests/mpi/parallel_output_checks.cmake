@@ -68,6 +68,20 @@ if(RICOCHET_USE_HDF5)
                        ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 300)
 endif()
 
+# The local loop kept through migrations (event_loop%remap_bodies): audited windows on 2
+# ranks, frames and history those of one rank, window ends certifying the arrivals only.
+if(RICOCHET_USE_HDF5)
+  set(workdir ${CMAKE_CURRENT_BINARY_DIR}/run/mpi_window_remap)
+  file(MAKE_DIRECTORY ${workdir})
+  add_test(NAME mpi.decomposition_window_remap
+           COMMAND ${RICOCHET_PYTHON} ${CMAKE_CURRENT_SOURCE_DIR}/mpi/check_window_remap.py
+                   $<TARGET_FILE:ricochet> ${RICOCHET_TEST_DATA}/decomposition/window_remap.nml ${workdir}
+                   ${MPIEXEC_EXECUTABLE} ${MPIEXEC_PREFLAGS}
+           WORKING_DIRECTORY ${workdir})
+  set_tests_properties(mpi.decomposition_window_remap PROPERTIES LABELS "mpi;regression"
+                       ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 300)
+endif()
+
 # The start-up checks shared among ranks (overlap test, contact_possible's sweep): on 1 to 4
 # ranks the same overlap error names the same bodies, and the notice the same pair.
 if(RICOCHET_USE_HDF5)

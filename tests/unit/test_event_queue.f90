@@ -1,6 +1,8 @@
 !> The local loop's priority queue (event_queue) and pair store (pair_store): against a
 !> brute-force reference under random inserts, moves and removals, ties broken by the global
-!> ids whatever the order of insertion, and the stale-certificate check.
+!> ids whatever the order of insertion, and the stale-certificate check. And the three
+!> renumbered as a migration renumbers a rank's bodies (remap_bodies, remap_handles: some
+!> leave, the others keep their order among new arrivals): everything kept is kept as it was.
 program test_event_queue
   use kinds, only: dp, i8
   use random_stream, only: random_stream_t
@@ -15,6 +17,7 @@ program test_event_queue
   call queue_ties()
   call store_lists_and_versions()
   call grid_against_brute_force()
+  call renumbering()
   call test_finish()
 
 contains
@@ -193,6 +196,151 @@ contains
     call g%query(6, found, n_found, n)
     call check(.not. any(found(1:n_found) == 5), 'grid: an unplaced body is never returned')
   end subroutine grid_against_brute_force
+
+  !> 60 bodies, of which about a quarter leave; the others become rows of 120 in their old
+  !> order, with arrivals between them (what migrate_bodies' new_index looks like).
+  subroutine renumbering()
+    integer, parameter :: n = 60, n_new = 2 * n
+    type(event_queue_t) :: q, ref
+    type(pair_store_t) :: s
+    type(cell_grid_t) :: g
+    type(random_stream_t) :: rng
+    type(error_t) :: err
+    integer :: new_index(n), old_of(n_new), i, j, k, slot, h, h_ref, n_dropped, n_found, expected, step
+    integer, allocatable :: dropped(:), found(:), old_list(:, :), old_len(:)
+    integer(i8) :: gid(n)
+    real(dp) :: t, t_ref, lower(3, n), upper(3, n), gap_of(4 * n * n)
+    logical :: ok, order_ok, kept_ok, drop_ok
+    integer :: old_a(4 * n * n), old_b(4 * n * n), n_slots_before
+    call rng%init(23)
+    gid = [(int(3 * k + 1, i8), k=1, n)]
+    ! the renumbering: a body leaves with probability 1/4; rows after keep the old order
+    new_index = 0
+    old_of = 0
+    j = 0
+    do i = 1, n
+      if (rng%uniform() < 0.25_dp) cycle
+      j = j + 1 + merge(1, 0, rng%uniform() < 0.3_dp)     ! (an arrival takes the row between)
+      new_index(i) = j
+      old_of(j) = i
+    end do
+    ! queue: handles are bodies (box crossings), ties by gid
+    call q%init(8)
+    call ref%init(8)
+    do i = 1, n
+      t = real(int(rng%uniform() * 5.0_dp), dp)    ! many equal times: the ties decide
+      call q%set(i, t, gid(i), 0_i8)
+      if (new_index(i) > 0) call ref%set(new_index(i), t, gid(i), 0_i8)
+    end do
+    call q%remap_handles(new_index, n_new)
+    ok = q%check_heap() .and. q%n == ref%n
+    do while (.not. ref%empty())
+      call q%pop(h, t)
+      call ref%pop(h_ref, t_ref)
+      if (h /= h_ref .or. t /= t_ref) ok = .false.
+    end do
+    call check(ok .and. q%empty(), 'queue renumbered: heap holds, entries renamed, the same order as queued afresh')
+    call q%set(n_new, 0.0_dp, 0_i8, 0_i8)
+    call check(q%top() == n_new, 'queue renumbered: room for the new handles')
+    ! pair store: random pairs with distinct certificates
+    call s%init(n, 8)
+    do step = 1, 400
+      i = 1 + int(rng%uniform() * n)
+      j = 1 + int(rng%uniform() * n)
+      if (i == j) cycle
+      if (s%find(i, j) > 0) cycle
+      slot = s%add(i, j, gid(i), gid(j))
+      s%gap(slot) = real(slot, dp) + 0.5_dp
+      s%stamp(:, slot) = [int(slot, i8), -int(slot, i8)]
+    end do
+    n_slots_before = s%n_slots
+    old_a(1:n_slots_before) = s%a(1:n_slots_before)
+    old_b(1:n_slots_before) = s%b(1:n_slots_before)
+    gap_of(1:n_slots_before) = s%gap(1:n_slots_before)
+    allocate (old_list(n, n_slots_before), old_len(n))
+    do i = 1, n
+      old_len(i) = 0
+      slot = s%head(i)
+      do while (slot > 0)
+        old_len(i) = old_len(i) + 1
+        old_list(i, old_len(i)) = slot
+        slot = s%next_of(slot, i)
+      end do
+    end do
+    call s%remap_bodies(new_index, n_new, dropped, n_dropped)
+    kept_ok = s%check()
+    drop_ok = .true.
+    do slot = 1, n_slots_before
+      if (old_a(slot) == 0) cycle
+      if (new_index(old_a(slot)) > 0 .and. new_index(old_b(slot)) > 0) then
+        kept_ok = kept_ok .and. s%a(slot) == new_index(old_a(slot)) .and. s%b(slot) == new_index(old_b(slot)) .and. &
+                  s%gap(slot) == gap_of(slot) .and. all(s%stamp(:, slot) == [int(slot, i8), -int(slot, i8)])
+        if (any(dropped(1:n_dropped) == slot)) drop_ok = .false.
+      else
+        if (s%a(slot) /= 0 .or. .not. any(dropped(1:n_dropped) == slot)) drop_ok = .false.
+      end if
+    end do
+    ! every body's list: its old list without the dropped pairs, in the same order
+    order_ok = .true.
+    do j = 1, n_new
+      i = old_of(j)
+      slot = s%head(j)
+      if (i == 0) then
+        if (slot /= 0) order_ok = .false.
+        cycle
+      end if
+      do k = 1, old_len(i)
+        if (any(dropped(1:n_dropped) == old_list(i, k))) cycle
+        if (slot /= old_list(i, k)) order_ok = .false.
+        if (slot > 0) slot = s%next_of(slot, j)
+      end do
+      if (slot /= 0) order_ok = .false.
+    end do
+    call check(kept_ok, 'store renumbered: lists consistent, kept pairs renamed with their certificates')
+    call check(drop_ok, 'store renumbered: exactly the pairs with a body that left are dropped and listed')
+    call check(order_ok, 'store renumbered: each body keeps the order of its remaining pairs')
+    j = findloc(old_of, 0, 1, back=.true.)
+    slot = s%add(j, new_index(maxloc(new_index, 1)), 1000_i8, gid(maxloc(new_index, 1)))
+    call check(s%check() .and. s%degree(j) == 1, 'store renumbered: an arrival''s pair added')
+    ! grid: regions kept for the bodies that stay, nobody else listed until placed
+    call g%init(0.1_dp, n, err)
+    do i = 1, n
+      call random_region(rng, lower(:, i), upper(:, i))
+      call g%place(i, lower(:, i), upper(:, i), err)
+    end do
+    call g%remap_bodies(new_index, n_new)
+    ok = err%ok()
+    do j = 1, n_new
+      i = old_of(j)
+      if (i == 0) then
+        if (g%placed(j)) ok = .false.
+        cycle
+      end if
+      call g%query(j, found, n_found, n_new)
+      expected = 0
+      do k = 1, n
+        if (k == i .or. new_index(k) == 0) cycle
+        if (all(lower(:, k) <= upper(:, i)) .and. all(lower(:, i) <= upper(:, k))) expected = expected + 1
+      end do
+      if (n_found /= expected) ok = .false.
+      do k = 1, n_found
+        if (old_of(found(k)) == 0) then
+          ok = .false.
+        else if (.not. (all(lower(:, old_of(found(k))) <= upper(:, i)) .and. &
+                        all(lower(:, i) <= upper(:, old_of(found(k)))))) then
+          ok = .false.
+        end if
+      end do
+    end do
+    call check(ok, 'grid renumbered: queries return exactly the overlapping regions of bodies that stayed, renamed')
+    j = findloc(old_of, 0, 1)
+    if (j > 0) then
+      i = findloc(new_index > 0, .true., 1)
+      call g%place(j, g%lower(:, new_index(i)), g%upper(:, new_index(i)), err)
+      call g%query(j, found, n_found, n_new)
+      call check(any(found(1:n_found) == new_index(i)), 'grid renumbered: an arrival placed finds its neighbours')
+    end if
+  end subroutine renumbering
 
   subroutine random_region(rng, lower, upper)
     type(random_stream_t), intent(inout) :: rng
