@@ -11,8 +11,9 @@ What "the same" means, and why:
 - checkpoints: every dataset and attribute bit for bit except the attributes n_ranks and
   wall_time_before (what they say differs by design) and the counters pair_tests and
   min_separation: these sample the closest-point queries of the rank that certifies a pair,
-  and a decomposed run (no ghosts yet) neither sees a pair across a brick face nor keeps
-  its certificates through a migration (docs/architecture.md, "Domain decomposition");
+  and a decomposed run (no ghosts yet) does not see a pair across a brick face, and
+  certifies again the pairs of bodies that arrive in a migration (the pairs of staying
+  bodies keep their certificates: docs/architecture.md, "The loop through a migration");
 - history: every column except wall_time and min_separation (the same sampling).
 Free flight: every centre of mass of every frame is x0 + v0 t + g t^2/2 computed here in
 doubles, to 1e-12 m (|x| < 20 m: a few ulps of round-off, while any wrong anchor after a
