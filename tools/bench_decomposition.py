@@ -16,6 +16,7 @@ only at the end).
 
     .venv/bin/python tools/bench_decomposition.py                    # 10^4 and 10^5 bodies, np 1 2 4
     .venv/bin/python tools/bench_decomposition.py --n 20000 --ranks 1 2
+    .venv/bin/python tools/bench_decomposition.py --weak --n 50000 --ranks 1 2 4   # n per rank
 
 Writes docs/bench/decomposition_windows.md (and prints it). np = 4 on this 2-core machine is
 oversubscribed: reported, not a scaling figure.
@@ -33,11 +34,13 @@ import time
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 
 
-def deck_text(n, t_end, speed):
+def deck_text(n, t_end, speed, stretch=1):
     # about n bodies: two lattices of 4k x 2k x k (spacing 0.3 m, x the longest axis, so
-    # bricks are cut across x first), spheres and boxes interleaved
+    # bricks are cut across x first), spheres and boxes interleaved; stretch: the lattice
+    # that many times longer along x (weak scaling: n bodies per rank, stretch = ranks, so
+    # every rank gets the same slab of the lattice)
     k = max(1, round((n / 16) ** (1 / 3)))
-    nx, ny, nz = 4 * k, 2 * k, k
+    nx, ny, nz = 4 * k * stretch, 2 * k, k
     return f"""&run
   title = 'decomposition windows, {2 * nx * ny * nz} bodies'
   t_end = {t_end}
@@ -97,22 +100,25 @@ def main():
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 4])
     ap.add_argument("--t-end", type=float, default=0.5)
     ap.add_argument("--speed", type=float, default=1.0, help="velocity (3, 1, 0.5) m/s times this")
+    ap.add_argument("--weak", action="store_true",
+                    help="weak scaling: --n bodies per rank, the lattice stretched along x by the rank count")
     ap.add_argument("--exe", default=os.path.join(ROOT, "build", "app", "ricochet"))
     ap.add_argument("--out", default=os.path.join(ROOT, "docs", "bench", "decomposition_windows.md"))
     args = ap.parse_args()
     work = tempfile.mkdtemp(prefix="ricochet_decomp_")
     lines = ["# Domain decomposition: cost per window (tools/bench_decomposition.py)", "",
+             ("Weak scaling: --n bodies per rank, the lattice stretched along x by the rank count. " if args.weak else "") +
              f"Machine: {platform.node()} ({os.cpu_count()} cores), {time.strftime('%Y-%m-%d')}; "
              f"t_end = {args.t_end} s, lattice velocity ({3 * args.speed:g}, {args.speed:g}, {0.5 * args.speed:g}) m/s, no frames. Stepping wall from the end-of-run summary.", "",
              "| bodies | ranks | bricks | process [s] | run wall [s] | start-up [s] | windows | bodies migrated | messages | bytes "
              "| per window [ms] | of it the loop [ms] | certificates per window | certificates in the run (rank 0) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for n in args.n:
-        text, n_bodies = deck_text(n, args.t_end, args.speed)
-        deck = os.path.join(work, f"free_{n}.nml")
-        with open(deck, "w") as f:
-            f.write(text)
         for ranks in args.ranks:
+            text, n_bodies = deck_text(n, args.t_end, args.speed, ranks if args.weak else 1)
+            deck = os.path.join(work, f"free_{n}_{ranks}.nml")
+            with open(deck, "w") as f:
+                f.write(text)
             out = os.path.join(work, f"out_{n}_{ranks}")
             r = run(args.exe, deck, ranks, out)
             w = r["windows"]
