@@ -100,7 +100,7 @@ contains
     call remove_residual_approach(self, bodies, self%contacts(1:n_contacts))
     do c = 1, n_moving
       i = moving(c)
-      if (i > bodies%n_owned) cycle
+      ! (ghost rows too: a cross-rank impact, whose new anchors go to their owners)
       if (any(v_old(:, c) /= bodies%v(:, i)) .or. any(w_old(:, c) /= bodies%w(:, i))) then
         call flight%release(i)
         if (self%log_events .and. present(time)) call log_impulse(self, bodies, i, time, v_old(:, c), w_old(:, c))

@@ -44,6 +44,7 @@ module free_flight
     procedure :: anchor_words => flight_anchor_words
     procedure :: pack_anchors => flight_pack_anchors
     procedure :: unpack_anchors => flight_unpack_anchors
+    procedure :: set_record => flight_set_record
   end type free_flight_t
 
 contains
@@ -258,6 +259,25 @@ contains
       self%rotors(k) = transfer(words(13:w, k), probe)
     end do
   end subroutine flight_unpack_anchors
+
+  !> Body i's flight record from words (one record of pack_anchors), bit for bit: a body
+  !> whose new trajectory another rank computed (a cross-rank impact).
+  subroutine flight_set_record(self, i, words)
+    class(free_flight_t), intent(inout) :: self
+    integer, intent(in) :: i
+    integer(i8), intent(in) :: words(:)
+    type(free_rotor_t) :: probe
+    integer :: w
+    w = size(words)
+    self%loaded(i) = words(1) /= 0
+    self%accel(:, i) = transfer(words(2:4), self%accel(:, i))
+    if (.not. self%exact) return
+    self%anchored(i) = words(5) /= 0
+    self%t0(i) = transfer(words(6), self%t0(i))
+    self%x0(:, i) = transfer(words(7:9), self%x0(:, i))
+    self%v0(:, i) = transfer(words(10:12), self%v0(:, i))
+    self%rotors(i) = transfer(words(13:w), probe)
+  end subroutine flight_set_record
 
   subroutine anchor(self, bodies, i, time_now)
     type(free_flight_t), intent(inout) :: self

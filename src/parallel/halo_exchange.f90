@@ -47,13 +47,16 @@ contains
   !> domain%dims, domain built for par%cart_rank). versions(k): the trajectory version of
   !> owned row k (size >= n_owned); ghost_versions(k): that of ghost row n_owned + k after
   !> the exchange (0 without versions). stats: this exchange's counts added.
+  !> payload(:, k): more of the caller's words of owned row k (its flight record: the
+  !> anchor), travelling with it bit for bit; ghost_payload(:, k): those of ghost row
+  !> n_owned + k after the exchange (both or neither).
   !>
   !> Collective over the Cartesian communicator. Misuse that every rank sees alike (rings,
   !> no or another rank grid) returns before any message. A failure of this rank alone (a
   !> NaN position, short versions, a bad buffer) still takes part in every pass, sending
   !> nothing more, so no rank waits forever; err says what, on this rank only: the caller
   !> reduces it (par%any) as it does for its other errors. The ghosts are then incomplete.
-  subroutine exchange_halo(par, dom, bodies, rings, err, versions, ghost_versions, stats)
+  subroutine exchange_halo(par, dom, bodies, rings, err, versions, ghost_versions, stats, payload, ghost_payload)
     type(parallel_t), intent(in) :: par
     type(domain_t), intent(in) :: dom
     type(bodies_t), intent(inout) :: bodies
@@ -62,15 +65,24 @@ contains
     integer(i8), intent(in), optional :: versions(:)
     integer(i8), allocatable, intent(out), optional :: ghost_versions(:)
     type(halo_stats_t), intent(inout), optional :: stats
-    integer(i8), allocatable :: extra(:, :)   ! (n_extra, rows): the versions of every row
+    integer(i8), intent(in), optional :: payload(:, :)
+    integer(i8), allocatable, intent(out), optional :: ghost_payload(:, :)
+    integer(i8), allocatable :: extra(:, :)   ! (n_extra, rows): the version, then the payload, of every row
     type(halo_stats_t) :: counts
     type(error_t) :: pass_err
     real(dp), allocatable :: recv_minus(:), recv_plus(:)
-    integer :: n_extra, axis, side, direction, neighbour(2), k
+    integer :: n_extra, axis, side, direction, neighbour(2), k, n_version, n_payload
     integer, allocatable :: rows(:)
     type(box_range_t) :: boxes
 
     if (present(ghost_versions)) allocate (ghost_versions(0))
+    n_payload = 0
+    if (present(payload)) n_payload = size(payload, 1)
+    if (present(ghost_payload)) allocate (ghost_payload(n_payload, 0))
+    if (present(payload) .neqv. present(ghost_payload)) then
+      call err%set(ERR_INTERNAL, 'halo exchange: payload and ghost_payload go together')
+      return
+    end if
     if (rings < 1 .or. rings > MAX_HALO_RINGS) then
       call err%set(ERR_INTERNAL, 'halo exchange: rings must be 1..'//str(MAX_HALO_RINGS)//', not '//str(rings))
       return
@@ -86,9 +98,19 @@ contains
     ! itself); the storage stays for the new ones.
     bodies%n_ghost = 0
 
-    n_extra = 0
-    if (present(versions)) n_extra = 1
+    n_version = 0
+    if (present(versions)) n_version = 1
+    n_extra = n_version + n_payload
     allocate (extra(n_extra, bodies%n_owned))
+    extra = 0
+    if (n_payload > 0) then
+      if (size(payload, 2) < bodies%n_owned) then
+        call err%set(ERR_INTERNAL, 'halo exchange: payload for '//str(size(payload, 2))//' of '// &
+                     str(bodies%n_owned)//' owned bodies')
+      else
+        extra(n_version + 1:n_extra, :) = payload(:, 1:bodies%n_owned)
+      end if
+    end if
     if (present(versions)) then
       if (size(versions) < bodies%n_owned) then
         call err%set(ERR_INTERNAL, 'halo exchange: '//str(size(versions))//' versions for '// &
@@ -143,7 +165,12 @@ contains
       deallocate (ghost_versions)
       allocate (ghost_versions(bodies%n_ghost))
       ghost_versions = 0
-      if (n_extra > 0) ghost_versions = extra(1, bodies%n_owned + 1:bodies%n_total())
+      if (n_version > 0) ghost_versions = extra(1, bodies%n_owned + 1:bodies%n_total())
+    end if
+    if (present(ghost_payload)) then
+      deallocate (ghost_payload)
+      allocate (ghost_payload(n_payload, bodies%n_ghost))
+      if (n_payload > 0) ghost_payload = extra(n_version + 1:n_extra, bodies%n_owned + 1:bodies%n_total())
     end if
     counts%exchanges = 1
     if (present(stats)) then

@@ -39,6 +39,21 @@ module event_loop
   implicit none
   private
   public :: event_loop_t, event_stats_t
+  public :: CROSS_OFF, CROSS_SPECULATE, CROSS_RERUN, CROSS_PHASE, STOP_NONE, STOP_CROSS, STOP_HALO
+
+  !> Ghost rows (docs/architecture.md, "Cross-rank contacts"): rows after bodies%n_owned
+  !> are other ranks' bodies, read-only here. cross_mode says what an event that needs one
+  !> of them (an impact of a pair with a moving ghost, or an impulse group reaching one)
+  !> does: CROSS_OFF, no ghosts; CROSS_SPECULATE, the run stops there (stop_kind STOP_CROSS)
+  !> and, as it does at a box crossing of an owned body near a neighbouring brick (STOP_HALO),
+  !> leaves the rest to the caller's window (the state is then the caller's to restore);
+  !> CROSS_RERUN, such an event is an internal error (a run repeated up to a time before it);
+  !> CROSS_PHASE, impacts whose pair's lower global id is owned here are taken with the
+  !> ghosts (their new trajectories are the caller's to send to their owners), the others
+  !> dropped (their owners take them).
+  integer, parameter :: CROSS_OFF = 0, CROSS_SPECULATE = 1, CROSS_RERUN = 2, CROSS_PHASE = 3
+  integer, parameter :: STOP_NONE = 0, STOP_CROSS = 1, STOP_HALO = 2
+  integer, parameter :: CROSS_GO = 0, CROSS_STOP = 1, CROSS_DROPPED = 2
 
   !> "Never" [s]: later than any run, far from overflow in t + dt.
   real(dp), parameter :: far_future = 1.0e30_dp
@@ -113,6 +128,18 @@ module event_loop
     real(dp) :: steps_now_time = -1.0_dp
     type(event_stats_t) :: stats
     integer, allocatable :: found(:)
+    ! cross-rank windows (see CROSS_OFF ...)
+    integer :: cross_mode = CROSS_OFF
+    integer :: n_owned = 0                       !< rows 1..n_owned owned, the rest ghosts
+    integer :: stop_kind = STOP_NONE             !< why run_until stopped early
+    real(dp) :: stop_time = far_future           !< ... and when [s]
+    integer(i8) :: stop_pair(2) = 0              !< the pair (global ids) of a STOP_CROSS
+    !> an owned body's box crossing outside [watch_lo, watch_hi] is a STOP_HALO [m]
+    real(dp) :: watch_lo(3) = -far_future, watch_hi(3) = far_future
+    !> a ghost in an impulse group of the cross phase must lie in [complete_lo, complete_hi]:
+    !> every body within the band of it is then held here [m]
+    real(dp) :: complete_lo(3) = -far_future, complete_hi(3) = far_future
+    real(dp), allocatable :: first_change(:)     !< per body: first trajectory change since init [s]
   contains
     procedure :: init => loop_init
     procedure :: remap_bodies => loop_remap_bodies
@@ -190,6 +217,12 @@ contains
     self%impacts_now_time = -1.0_dp
     self%steps_now = 0
     self%steps_now_time = -1.0_dp
+    self%n_owned = bodies%n_owned
+    self%stop_kind = STOP_NONE
+    self%stop_time = far_future
+    if (allocated(self%first_change)) deallocate (self%first_change)
+    allocate (self%first_change(n))
+    self%first_change = far_future
     call self%pairs%init(n, 8*n)
     if (allocated(self%pair_mark)) deallocate (self%pair_mark)
     allocate (self%pair_mark(0))
@@ -213,6 +246,7 @@ contains
       if (bodies%fixed(i)) cycle
       call self%cells%query(i, self%found, k, n)
       do j = 1, k
+        if (.not. held_pair(self, bodies, i, self%found(j))) cycle
         if (self%pairs%find(i, self%found(j)) > 0) cycle
         slot = self%pairs%add(i, self%found(j), bodies%gid(i), bodies%gid(self%found(j)))
       end do
@@ -278,6 +312,7 @@ contains
     integer, allocatable :: island_of(:)
     logical :: kept
     n = bodies%n_owned + bodies%n_ghost
+    self%n_owned = bodies%n_owned
     rebuilt = .false.
     call self%islands%remap_bodies(new_index, kept)
     if (.not. kept) then
@@ -373,7 +408,7 @@ contains
       call self%cells%query(ni, self%found, n_found, n)
       do k = 1, n_found
         j = self%found(k)
-        if (bodies%fixed(ni) .and. bodies%fixed(j)) cycle
+        if (.not. held_pair(self, bodies, ni, j)) cycle
         if (self%pairs%find(ni, j) > 0) cycle
         slot = self%pairs%add(ni, j, bodies%gid(ni), bodies%gid(j))
         call push(new_slots, n_new_slots, slot)
@@ -434,7 +469,9 @@ contains
   !> Processes every event before t_stop, and the pair and crossing events at t_stop
   !> (island steps at t_stop come after the caller's outputs there). t_hard: island steps
   !> end there from now on (the next checkpoint or the end of the run) [s].
-  subroutine loop_run_until(self, stage, bodies, shapes, flight, t_stop, t_hard, err)
+  !> exclusive: none at t_stop either. With ghosts (cross_mode CROSS_SPECULATE) the run may
+  !> stop before t_stop: stop_kind and stop_time say why and when.
+  subroutine loop_run_until(self, stage, bodies, shapes, flight, t_stop, t_hard, err, exclusive)
     class(event_loop_t), intent(inout) :: self
     type(collision_stage_t), intent(inout) :: stage
     type(bodies_t), intent(inout) :: bodies
@@ -442,18 +479,38 @@ contains
     type(free_flight_t), intent(inout) :: flight
     real(dp), intent(in) :: t_stop, t_hard
     type(error_t), intent(inout) :: err
+    logical, intent(in), optional :: exclusive
     real(dp) :: t_pair, t_body, t_island, t
     integer :: handle
     integer(i8) :: clock, clock_rate, impacts_before
+    logical :: up_to, due
+    up_to = .false.
+    if (present(exclusive)) up_to = exclusive
     self%t_hard = t_hard
+    self%stop_kind = STOP_NONE
+    self%stop_time = far_future
     call system_clock(count_rate=clock_rate)
     do
       call system_clock(clock)
       t_pair = self%pair_queue%top_time()
       t_body = self%body_queue%top_time()
       t_island = self%island_queue%top_time()
-      if (min(t_pair, t_body) <= t_stop .and. min(t_pair, t_body) <= t_island) then
+      if (up_to) then
+        due = min(t_pair, t_body) < t_stop
+      else
+        due = min(t_pair, t_body) <= t_stop
+      end if
+      if (due .and. min(t_pair, t_body) <= t_island) then
         if (t_pair <= t_body) then
+          if (self%cross_mode /= CROSS_OFF) then
+            select case (cross_impact_due(self, bodies, self%pair_queue%top(), t_pair, err))
+            case (CROSS_STOP)
+              exit
+            case (CROSS_DROPPED)
+              cycle
+            end select
+            if (err%failed()) return
+          end if
           call self%pair_queue%pop(handle, t)
           self%time = max(self%time, t)
           impacts_before = self%stats%impacts
@@ -466,6 +523,15 @@ contains
         else
           call self%body_queue%pop(handle, t)
           self%time = max(self%time, t)
+          if (self%cross_mode == CROSS_SPECULATE .and. handle <= self%n_owned) then
+            ! an owned body near a neighbouring brick has used up its margin: the halo
+            ! the ghosts came from no longer covers what may reach it (the caller's window)
+            call sync(self, bodies, flight, handle, t)
+            if (any(bodies%x(:, handle) < self%watch_lo) .or. any(bodies%x(:, handle) > self%watch_hi)) then
+              self%stop_kind = STOP_HALO
+              self%stop_time = t
+            end if
+          end if
           call crossing_event(self, stage, bodies, shapes, flight, handle, t, err)
           self%stats%wall_detection = self%stats%wall_detection + elapsed(clock, clock_rate)
         end if
@@ -478,11 +544,73 @@ contains
         exit
       end if
       if (err%failed()) return
+      if (self%stop_kind /= STOP_NONE) exit
       if (self%config%audit_certificates) call audit_certificates(self, bodies, t_stop, err)
       if (err%failed()) return
     end do
+    if (self%stop_kind /= STOP_NONE) return
     self%time = t_stop
   end subroutine loop_run_until
+
+  !> What to do with the pair event at the top of the queue (slot, at t) in a run with
+  !> ghosts: CROSS_GO on, unless it is an impact that needs a moving ghost. Then
+  !> CROSS_SPECULATE: the run stops before it (stop_kind STOP_CROSS; CROSS_STOP).
+  !> CROSS_RERUN: an internal error (the caller's repeated run reaches only times before
+  !> every such impact). CROSS_PHASE: taken here if the pair's lower global id is owned here
+  !> (CROSS_GO), else dropped, its owner's to take (CROSS_DROPPED: the next event is looked at).
+  integer function cross_impact_due(self, bodies, slot, t, err) result(what)
+    type(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: slot
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer :: a, b, lower
+    what = CROSS_GO
+    if (slot <= 0) return
+    if (self%pairs%action(slot) /= ACTION_IMPACT) return
+    if (.not. self%pairs%current(slot, self%version)) return
+    a = self%pairs%a(slot)
+    b = self%pairs%b(slot)
+    if (.not. (is_moving_ghost(self, bodies, a) .or. is_moving_ghost(self, bodies, b))) return
+    select case (self%cross_mode)
+    case (CROSS_SPECULATE)
+      what = CROSS_STOP
+      self%stop_kind = STOP_CROSS
+      self%stop_time = t
+      self%stop_pair = [min(bodies%gid(a), bodies%gid(b)), max(bodies%gid(a), bodies%gid(b))]
+    case (CROSS_RERUN)
+      call err%set(ERR_INTERNAL, 'cross-rank window: bodies '//str(bodies%gid(a))//' and '//str(bodies%gid(b))// &
+                   ' meet at t = '//str(t)//' s in a run repeated to an earlier time')
+    case (CROSS_PHASE)
+      lower = a
+      if (bodies%gid(b) < bodies%gid(a)) lower = b
+      if (lower > self%n_owned) then
+        ! (the owner of the lower id takes it: dropped here, and not certified again, since
+        ! the caller builds the loop again after the phase)
+        call self%pair_queue%remove(slot)
+        call self%pairs%remove(slot)
+        what = CROSS_DROPPED
+      end if
+    end select
+  end function cross_impact_due
+
+  !> Whether the pair of rows i and j is this rank's to keep: one of them is an owned moving
+  !> body (two ghosts, or a ghost and a fixed body, are their owners' pair; two fixed
+  !> bodies nobody's).
+  pure logical function held_pair(self, bodies, i, j)
+    type(event_loop_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i, j
+    held_pair = (i <= self%n_owned .and. .not. bodies%fixed(i)) .or. (j <= self%n_owned .and. .not. bodies%fixed(j))
+  end function held_pair
+
+  !> Row i is another rank's moving body.
+  pure logical function is_moving_ghost(self, bodies, i)
+    type(event_loop_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    is_moving_ghost = i > self%n_owned .and. .not. bodies%fixed(i)
+  end function is_moving_ghost
 
   !> The loop's invariant, checked after an event (&integrator audit_certificates): every
   !> pair with a moving body holds a certificate made with both bodies' present versions and
@@ -578,6 +706,9 @@ contains
     self%state_time(i) = t
     self%version(i) = self%version(i) + 1
     self%changes(i) = self%changes(i) + 1
+    if (allocated(self%first_change)) then
+      if (i <= size(self%first_change)) self%first_change(i) = min(self%first_change(i), t)
+    end if
     self%stats%trajectory_changes = self%stats%trajectory_changes + 1
     if (.not. bodies%fixed(i)) call flight%anchor_at(bodies, i, t)
   end subroutine new_trajectory
@@ -669,7 +800,7 @@ contains
     call self%cells%query(i, self%found, n_found, bodies%n_owned + bodies%n_ghost)
     do k = 1, n_found
       j = self%found(k)
-      if (bodies%fixed(i) .and. bodies%fixed(j)) cycle
+      if (.not. held_pair(self, bodies, i, j)) cycle
       if (self%pairs%find(i, j) > 0) cycle
       slot = self%pairs%add(i, j, bodies%gid(i), bodies%gid(j))
       call ensure_pair_marks(self)
@@ -1137,6 +1268,23 @@ contains
     if (.not. repeat) call push(self%impacts_now, self%n_impacts_now, slot)
     call impulse_group(self, stage, bodies, shapes, flight, slot, t, group, n_group, contact_slots, n_contact, err)
     if (err%failed()) return
+    if (self%cross_mode /= CROSS_OFF .and. self%cross_mode /= CROSS_PHASE) then
+      ! a group of owned bodies reaching another rank's: as a pair with a ghost (see
+      ! cross_impact_due); the state is the caller's to restore
+      if (any([(is_moving_ghost(self, bodies, group(k)), k=1, n_group)])) then
+        if (self%cross_mode == CROSS_RERUN) then
+          call err%set(ERR_INTERNAL, 'cross-rank window: the impulse group of bodies '// &
+                       str(bodies%gid(self%pairs%a(slot)))//' and '//str(bodies%gid(self%pairs%b(slot)))// &
+                       ' reaches another rank''s body at t = '//str(t)//' s in a run repeated to an earlier time')
+          return
+        end if
+        self%stop_kind = STOP_CROSS
+        self%stop_time = t
+        self%stop_pair = [min(bodies%gid(self%pairs%a(slot)), bodies%gid(self%pairs%b(slot))), &
+                          max(bodies%gid(self%pairs%a(slot)), bodies%gid(self%pairs%b(slot)))]
+        return
+      end if
+    end if
     ! islands touched: their steps end here, what their passes gave for the rest taken back
     allocate (reseed(16))
     n_reseed = 0
@@ -1214,7 +1362,7 @@ contains
     integer, intent(out) :: n_group, n_contact
     type(error_t), intent(inout) :: err
     integer, allocatable :: woken(:)
-    integer :: stamp, k, q, m, i, n_woken, w
+    integer :: stamp, k, q, m, i, n_woken, w, n_found
     real(dp) :: gap, normal(3), lb, dt
     allocate (group(16), contact_slots(16))
     n_group = 0
@@ -1229,6 +1377,25 @@ contains
       k = k + 1
       i = group(k)
       call sync(self, bodies, flight, i, t)
+      if (self%cross_mode == CROSS_PHASE .and. i > self%n_owned) then
+        ! a ghost of a cross-rank impact: its pairs with every body held here (those with
+        ! ghosts and fixed bodies are not kept otherwise), if all it may touch is held
+        if (any(bodies%x(:, i) < self%complete_lo) .or. any(bodies%x(:, i) > self%complete_hi)) then
+          call err%set(ERR_INTERNAL, 'cross-rank impact at t = '//str(t)//' s: the impulse group of bodies '// &
+                       str(bodies%gid(self%pairs%a(slot)))//' and '//str(bodies%gid(self%pairs%b(slot)))// &
+                       ' reaches body '//str(bodies%gid(i))//' too far from this rank''s brick to see all it '// &
+                       'touches (impulse groups across more than one brick face are not built yet)')
+          return
+        end if
+        call self%cells%query(i, self%found, n_found, bodies%n_owned + bodies%n_ghost)
+        do w = 1, n_found
+          m = self%found(w)
+          if (bodies%fixed(i) .and. bodies%fixed(m)) cycle
+          if (self%pairs%find(i, m) > 0) cycle
+          q = self%pairs%add(i, m, bodies%gid(i), bodies%gid(m))
+        end do
+        call ensure_pair_marks(self)
+      end if
       q = self%pairs%head(i)
       do while (q > 0)
         m = self%pairs%partner(q, i)

@@ -100,6 +100,17 @@ module simulation
     !> again (event_loop%remap_bodies), this rank
     integer(i8) :: window_rebuilds = 0
     type(migration_stats_t) :: migration
+    !> Cross-rank windows (docs/architecture.md, "Cross-rank contacts"): a decomposed run
+    !> whose bodies may meet across bricks (elastic, no gravity: no contact passes). Each
+    !> window: migration, the halo of two rings as ghosts with their anchors, the fixed
+    !> bodies as ghosts on every rank, the loop built over both, a run that stops where a
+    !> ghost is needed; if some rank stopped, every rank runs again from the window's start
+    !> to the earliest such time, and cross-rank impacts there are taken by the owner of the
+    !> lower global id, the new anchors of ghosts sent to their owners.
+    logical :: cross_windows = .false.
+    type(bodies_t) :: statics                 !< every fixed body of the scene (ghosts on every rank)
+    integer(i8) :: cross_count(4) = 0         !< windows, repeated (rolled back), cross phases, ghost updates sent
+    real(dp) :: cross_wall(2) = 0.0_dp        !< wall in window starts (migration, halo, loop built), in repeated runs [s]
     logical :: restarted = .false.
     !> Why the run stopped before t_end (run_stopped): 0 it did not, 128 + the signal number
     !> for SIGTERM/SIGINT (143, 130: what shells and schedulers report for a signal), or
@@ -119,12 +130,30 @@ module simulation
     !> The bricks of this run on par's ranks (decomposed = .true.), or, when the scene is too
     !> small to give every rank two grid boxes along a split axis, none (a notice; every body
     !> then runs on rank 0). The global box holds every body's bounding sphere at the start.
-    module subroutine decompose(self, par, everyone, err)
+    !> box: the grid box of the bricks [m] (default the collision grid's).
+    module subroutine decompose(self, par, everyone, err, box)
       type(simulation_t), intent(inout) :: self
       type(parallel_t), intent(inout) :: par
       type(bodies_t), intent(in) :: everyone
       type(error_t), intent(inout) :: err
+      real(dp), intent(in), optional :: box
     end subroutine decompose
+    ! simulation_cross_windows.f90
+    !> The run of cross_windows (local loop, several ranks, bodies that may meet across
+    !> bricks): windows up to each output time, see simulation_t%cross_windows.
+    module subroutine run_cross_windows(self, par, err)
+      type(simulation_t), intent(inout) :: self
+      type(parallel_t), intent(in) :: par
+      type(error_t), intent(inout) :: err
+    end subroutine run_cross_windows
+    !> The grid box of the bricks for cross_windows [m]: large enough that two rings of it
+    !> hold every body that can reach an owned body while no body moves more than half a
+    !> collision grid box (docs/architecture.md): R_max + band/2 + h/2, R_max the largest
+    !> bounding radius of a moving body, h the collision grid's box, and at least h.
+    module real(dp) function cross_box_size(self, everyone) result(box)
+      type(simulation_t), intent(in) :: self
+      type(bodies_t), intent(in) :: everyone
+    end function cross_box_size
     !> The bodies of all whose centre lies in this rank's brick, in global-id order.
     module subroutine take_brick(all, dom, owned)
       type(bodies_t), intent(in) :: all
@@ -239,7 +268,8 @@ contains
     type(material_table_t) :: materials
     type(checkpoint_meta_t) :: meta
     integer(i8) :: first, last, pair(2)
-    logical :: contacts
+    logical :: contacts, local, tried
+    character(len=:), allocatable :: why
     integer :: k
 
     self%deck = deck
@@ -287,13 +317,36 @@ contains
       contacts = contact_possible(par, self%shapes, everyone, deck%run%t_end - self%time, deck%run%gravity, pair, &
                                   2.0_dp*(self%collisions%target + self%collisions%tolerance + &
                                           self%collisions%contact_tolerance))
+      call choose_event_loop(deck, local, err)
+      if (err%failed()) return
+      tried = contacts .and. local .and. cross_contacts_built(deck, self%collisions)
+      if (tried) then
+        ! bodies of different bricks may meet: exact windows with ghosts (no contact passes)
+        call decompose(self, par, everyone, err, cross_box_size(self, everyone))
+        if (err%failed()) return
+        self%cross_windows = self%decomposed
+        if (self%decomposed) then
+          contacts = .false.
+          call take_statics(everyone, self%statics)
+          if (par%is_root()) then
+            write (*, '(a)') '  bodies of different bricks may meet (bodies '//str(pair(1))//' and '//str(pair(2))// &
+              ' may touch): cross-rank windows with two rings of ghosts'
+            flush (output_unit)
+          end if
+        end if
+      end if
       if (contacts .and. par%is_root()) then
+        if (tried) then
+          why = 'the scene is too small for the bricks of cross-rank windows (above)'
+        else
+          why = 'contacts between bodies of different ranks are built only for scenes without contact '// &
+                'passes (no gravity, every restitution above 0, events = ''local'')'
+        end if
         write (*, '(a)') 'ricochet: notice: bodies '//str(pair(1))//' and '//str(pair(2))//' may touch before '// &
-          't_end, and contacts between bodies of different ranks are not built yet: every body runs on '// &
-          'rank 0, the other '//str(par%n_ranks - 1)//' rank(s) wait'
+          't_end, and '//why//': every body runs on rank 0, the other '//str(par%n_ranks - 1)//' rank(s) wait'
         flush (output_unit)
       end if
-      if (.not. contacts) call decompose(self, par, everyone, err)
+      if (.not. contacts .and. .not. self%decomposed) call decompose(self, par, everyone, err)
       if (err%failed()) return
     end if
     if (self%decomposed) then
@@ -324,7 +377,7 @@ contains
     if (err%failed()) return
 
     if (len_trim(restart_path) > 0) then
-      call self%restart_from(meta)
+      call self%restart_from(meta, par%is_root())
     else
       call compute_totals(par, self%bodies, deck%run%gravity, self%initial)
     end if
@@ -345,7 +398,7 @@ contains
                                           deck%run%gravity, deck%integrator, self%time, deck%run%dt_max, &
                                           min(deck%run%t_end, self%next_checkpoint), err)
     self%previous_stop = self%time
-    if (self%decomposed) self%window_end = self%time + motion_window(self, par)
+    if (self%decomposed .and. .not. self%cross_windows) self%window_end = self%time + motion_window(self, par)
     self%startup_wall = par%wtime() - self%wall_start
   end subroutine simulation_init
 
@@ -431,6 +484,34 @@ contains
     end if
   end subroutine restore_checkpoint
 
+  !> Whether contacts between bodies of different ranks are built for this deck: no contact
+  !> passes or islands (no gravity, every pair's restitution above 0), the local loop.
+  logical function cross_contacts_built(deck, collisions) result(built)
+    type(deck_t), intent(in) :: deck
+    type(collision_stage_t), intent(in) :: collisions
+    built = norm2(deck%run%gravity) == 0.0_dp
+    if (allocated(collisions%materials%restitution)) then
+      if (size(collisions%materials%restitution) > 0) built = built .and. minval(collisions%materials%restitution) > 0.0_dp
+    end if
+  end function cross_contacts_built
+
+  !> The fixed bodies of all (global-id order), held by every rank of cross_windows.
+  subroutine take_statics(all, statics)
+    type(bodies_t), intent(in) :: all
+    type(bodies_t), intent(inout) :: statics
+    integer :: i, n
+    n = count(all%fixed(1:all%n_owned))
+    call statics%allocate(n)
+    n = 0
+    do i = 1, all%n_owned
+      if (.not. all%fixed(i)) cycle
+      n = n + 1
+      call copy_row(all, i, statics, n)
+    end do
+    statics%n_owned = n
+    statics%n_ghost = 0
+  end subroutine take_statics
+
   !> The deck fingerprint of bodies held whole on every rank (no reduction needed).
   real(dp) function bodies_checksum_serial(bodies) result(checksum)
     type(bodies_t), intent(in) :: bodies
@@ -454,9 +535,10 @@ contains
   end subroutine take_rows
 
   !> Continues from a checkpoint (restore_checkpoint has checked it and restored bodies).
-  subroutine restart_from(self, meta)
+  subroutine restart_from(self, meta, is_root)
     class(simulation_t), intent(inout) :: self
     type(checkpoint_meta_t), intent(in) :: meta
+    logical, intent(in) :: is_root
     self%time = meta%time
     self%step = meta%step
     self%first_step = meta%step
@@ -470,10 +552,14 @@ contains
     self%max_energy_error = counter(meta, 'max_energy_error')
     self%max_momentum_error = counter(meta, 'max_momentum_error')
     self%max_angular_momentum_error = counter(meta, 'max_angular_momentum_error')
-    self%collisions%stats%events = nint(counter(meta, 'events'), i8)
-    self%collisions%stats%contacts = nint(counter(meta, 'contacts'), i8)
-    self%collisions%stats%advancement_iterations = nint(counter(meta, 'advancement_iterations'), i8)
-    self%collisions%stats%pair_tests = nint(counter(meta, 'pair_tests'), i8)
+    ! (totals over every rank: rank 0 carries them on, the others count from zero, so the
+    ! sums of the history and the summary are the totals on any number of ranks)
+    if (is_root) then
+      self%collisions%stats%events = nint(counter(meta, 'events'), i8)
+      self%collisions%stats%contacts = nint(counter(meta, 'contacts'), i8)
+      self%collisions%stats%advancement_iterations = nint(counter(meta, 'advancement_iterations'), i8)
+      self%collisions%stats%pair_tests = nint(counter(meta, 'pair_tests'), i8)
+    end if
     self%collisions%stats%min_separation = counter(meta, 'min_separation')
     self%initial%momentum = meta%p0
     self%initial%angular_momentum = meta%l0

@@ -136,15 +136,17 @@ contains
                           'advancement_iterations', 'pair_tests', 'min_separation']
     meta%counters = [self%initial%kinetic_translational, self%initial%kinetic_rotational, self%initial%potential, &
                      self%max_energy_error, self%max_momentum_error, self%max_angular_momentum_error, &
-                     real(self%collisions%stats%events, dp), real(self%collisions%stats%contacts, dp), &
-                     real(self%collisions%stats%advancement_iterations, dp), &
-                     real(self%collisions%stats%pair_tests, dp), self%collisions%stats%min_separation]
+                     real(par%sum(self%collisions%stats%events), dp), &
+                     real(par%sum(self%collisions%stats%contacts), dp), &
+                     real(par%sum(self%collisions%stats%advancement_iterations), dp), &
+                     real(par%sum(self%collisions%stats%pair_tests), dp), par%min(self%collisions%stats%min_separation)]
   end procedure fill_meta
 
   module procedure simulation_summary
     real(dp) :: wall, per_step, min_sep, load(3, 3), startup, window_wall, window_loop_wall
     integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages, window_certificates, window_rebuilds
-    integer(i8) :: convex_bounds
+    integer(i8) :: convex_bounds, cross_count(4)
+    real(dp) :: cross_wall(2)
     wall = par%wtime() - self%wall_start
     ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
     ! time (everything but waiting in collectives is not split out yet: the run's wall time).
@@ -161,6 +163,9 @@ contains
     window_loop_wall = par%max(self%window_loop_wall)
     window_certificates = par%sum(self%window_certificates)
     window_rebuilds = par%sum(self%window_rebuilds)
+    cross_count(1:3) = self%cross_count(1:3)
+    cross_count(4) = par%sum(self%cross_count(4))
+    cross_wall = [par%max(self%cross_wall(1)), par%max(self%cross_wall(2))]
     ! Over every rank (collective, before rank 0 alone goes on to print).
     events = par%sum(self%collisions%stats%events)
     contacts = par%sum(self%collisions%stats%contacts)
@@ -199,7 +204,14 @@ contains
         ' / '//str(load(3, 1), '(g0.4)')//', events '//str(load(1, 2), '(g0.4)')//' / '//str(load(2, 2), '(g0.4)')// &
         ' / '//str(load(3, 2), '(g0.4)')//', busy '//str(load(1, 3), '(es9.3)')//' / '//str(load(2, 3), '(es9.3)')// &
         ' / '//str(load(3, 3), '(es9.3)')//' s'
-      if (self%decomposed) then
+      if (self%cross_windows) then
+        write (*, '(a)') '  cross-rank windows   '//str(cross_count(1))//' ('//str(cross_count(2))//' run again to '// &
+          'an earlier time, '//str(cross_count(3))//' of them ending at cross-rank impacts, '//str(cross_count(4))// &
+          ' ghosts sent back to their owners); '//str(migrated)//' bodies changed rank, '//str(messages)// &
+          ' messages, '//str(bytes)//' bytes'
+        write (*, '(a)') '  window costs         '//str(cross_wall(1), '(es9.3)')//' s starting windows (migration, '// &
+          'halo, loop built), '//str(cross_wall(2), '(es9.3)')//' s in runs repeated to an earlier time (slowest rank)'
+      else if (self%decomposed) then
         write (*, '(a)') '  windows              '//str(self%windows)//' ended by a migration: '//str(migrated)// &
           ' bodies changed rank, '//str(messages)//' messages, '//str(bytes)//' bytes'
         ! (the slowest rank's times: the others wait for it at the next collective)

@@ -94,6 +94,10 @@ contains
     real(dp) :: t_end, t_stop, t_hard, clock, t_output
     logical :: checkpointed, window_ends
     integer(i8) :: events_before
+    if (self%cross_windows) then
+      call run_cross_windows(self, par, err)
+      return
+    end if
     t_end = self%deck%run%t_end
     do while (self%time < t_end)
       t_output = min(t_end, self%next_output, self%next_history, self%next_checkpoint)

@@ -6,10 +6,12 @@ submodule (simulation) simulation_windows
 contains
 
   module procedure decompose
-    real(dp) :: lower(3), upper(3), r
+    real(dp) :: lower(3), upper(3), r, h
     integer(i8) :: n_boxes(3)
     integer :: dims(3), i
     type(error_t) :: why
+    h = self%collisions%box_size
+    if (present(box)) h = box
     lower = huge(1.0_dp)
     upper = -huge(1.0_dp)
     do i = 1, everyone%n_owned
@@ -17,9 +19,9 @@ contains
       lower = min(lower, everyone%x(:, i) - r)
       upper = max(upper, everyone%x(:, i) + r)
     end do
-    n_boxes = int(floor(upper/self%collisions%box_size) - floor(lower/self%collisions%box_size), i8) + 1
+    n_boxes = int(floor(upper/h) - floor(lower/h), i8) + 1
     call suggest_dims(par%n_ranks, self%deck%parallel%dims, dims, why, n_boxes)
-    if (why%ok()) call self%dom%init(self%collisions%box_size, lower, upper, dims, par%rank, why)
+    if (why%ok()) call self%dom%init(h, lower, upper, dims, par%rank, why)
     if (why%failed() .and. any(self%deck%parallel%dims > 0)) then
       ! dims the deck asked for: an error, not a quiet fallback
       call err%set(ERR_INPUT, self%deck%path//': &parallel: dims = '//str(self%deck%parallel%dims(1))//', '// &
@@ -41,8 +43,7 @@ contains
     if (par%is_root()) then
       write (*, '(a)') '  domain decomposition '//str(dims(1))//' x '//str(dims(2))//' x '//str(dims(3))// &
         ' bricks over '//str(self%dom%n_boxes(1))//' x '//str(self%dom%n_boxes(2))//' x '// &
-        str(self%dom%n_boxes(3))//' grid boxes of '//str(self%collisions%box_size, '(es10.3)')// &
-        ' m (no two bodies can interact before t_end: every rank runs its own)'
+        str(self%dom%n_boxes(3))//' grid boxes of '//str(h, '(es10.3)')//' m'
       flush (output_unit)
     end if
   end procedure decompose

@@ -29,14 +29,12 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "regression"))
 from ricochet_run import Checks, frames
+from run_compare import same_checkpoint, same_frames, same_history
 
 exe, deck, work, mpiexec = sys.argv[1:5]
 flags = sys.argv[5:]
 os.makedirs(work, exist_ok=True)
 c = Checks()
-SAMPLED_ATTRS = {"n_ranks", "wall_time_before"}
-SAMPLED_COUNTERS = {b"pair_tests", b"min_separation"}
-SAMPLED_COLUMNS = {13, 17}     # wall_time [s], min_separation [m] (0-based)
 
 
 def run(ranks, out, *extra):
@@ -47,49 +45,6 @@ def run(ranks, out, *extra):
     c.check(proc.returncode == 0, f"{ranks} rank(s) {' '.join(extra)}: exit {proc.returncode} "
             f"{proc.stdout.strip()[-300:]} {proc.stderr.strip()[-500:]}")
     return proc
-
-
-def same_checkpoint(a, b, what):
-    with h5py.File(a, "r") as x, h5py.File(b, "r") as y:
-        def walk(g, h, path):
-            for k, v in g.attrs.items():
-                if k in SAMPLED_ATTRS:
-                    continue
-                c.check(k in h.attrs and np.asarray(v).tobytes() == np.asarray(h.attrs[k]).tobytes(),
-                        f"{what}: attribute {path}/{k}")
-            c.check(sorted(g.keys()) == sorted(h.keys()), f"{what}: the same datasets in {path}/")
-            for k in g:
-                if k not in h:
-                    continue
-                if isinstance(g[k], h5py.Group):
-                    walk(g[k], h[k], path + "/" + k)
-                    continue
-                u, w = g[k][()], h[k][()]
-                if path + "/" + k == "/meta/counters":
-                    names = list(g["counter_names"][()])
-                    keep = [i for i, n in enumerate(names) if n not in SAMPLED_COUNTERS]
-                    u, w = u[keep], w[keep]
-                c.check(u.shape == w.shape and u.tobytes() == w.tobytes(), f"{what}: dataset {path}/{k} bit for bit")
-        walk(x, y, "")
-
-
-def same_history(a, b, what, from_time=None):
-    ra = [l.rstrip("\n").split(",") for l in open(os.path.join(a, "history.csv"))][1:]
-    rb = [l.rstrip("\n").split(",") for l in open(os.path.join(b, "history.csv"))][1:]
-    strip = lambda rows: [[x for i, x in enumerate(r) if i not in SAMPLED_COLUMNS] for r in rows]
-    c.check(strip(ra) == strip(rb), f"{what}: history.csv the same rows (but wall time, min_separation)")
-
-
-def same_frames(a, b, what, first=0):
-    names = sorted(os.listdir(os.path.join(a, "frames")))
-    other = sorted(os.listdir(os.path.join(b, "frames")))
-    c.check(names == other, f"{what}: the same frame files ({len(names)} against {len(other)})")
-    for name in names[first:]:
-        if name in other:
-            c.check(filecmp.cmp(os.path.join(a, "frames", name), os.path.join(b, "frames", name), shallow=False),
-                    f"{what}: frames/{name} cmp-identical")
-    for name in ("bodies.xmf", "surfaces.xmf"):
-        c.check(filecmp.cmp(os.path.join(a, name), os.path.join(b, name), shallow=False), f"{what}: {name} identical")
 
 
 outs = {}
@@ -105,11 +60,11 @@ for ranks in (1, 2, 4):
                 f"{ranks} ranks: bodies changed rank ({migrated})")
 for ranks in (2, 4):
     what = f"1 vs {ranks} ranks"
-    same_frames(outs[1], outs[ranks], what)
-    same_history(outs[1], outs[ranks], what)
+    same_frames(c, outs[1], outs[ranks], what)
+    same_history(c, outs[1], outs[ranks], what)
     for name in sorted(os.listdir(outs[1])):
         if name.startswith("checkpoint_") and name.endswith(".h5"):
-            same_checkpoint(os.path.join(outs[1], name), os.path.join(outs[ranks], name), f"{what}, {name}")
+            same_checkpoint(c, os.path.join(outs[1], name), os.path.join(outs[ranks], name), f"{what}, {name}")
 
 # The bricks the deck asks for (&parallel dims = 4, 1, 1: more crossings along x) give the
 # same frames and history again; dims that do not divide the ranks are an error naming them.
@@ -125,8 +80,8 @@ for dims, expect in (("4, 1, 1", True), ("3, 0, 0", False)):
     if expect:
         c.check(proc.returncode == 0 and "decomposition 4 x 1 x 1" in proc.stdout,
                 f"&parallel dims = {dims}: 4 x 1 x 1 bricks ({proc.stdout[-300:]} {proc.stderr[-300:]})")
-        same_frames(outs[1], out, f"1 rank vs dims = {dims}")
-        same_history(outs[1], out, f"1 rank vs dims = {dims}")
+        same_frames(c, outs[1], out, f"1 rank vs dims = {dims}")
+        same_history(c, outs[1], out, f"1 rank vs dims = {dims}")
     else:
         c.check(proc.returncode != 0 and "&parallel: dims = 3, 0, 0 on 4 ranks" in proc.stderr,
                 f"&parallel dims = {dims} on 4 ranks: an error naming the group ({proc.stderr[-300:]})")
@@ -146,8 +101,8 @@ for ranks, extra in ((1, ""), (4, "&parallel dims = 4, 1, 1 /\n")):
     newmark[ranks] = (out, proc.stdout)
 moved = [l for l in newmark[4][1].splitlines() if "ended by a migration" in l]
 c.check(bool(moved) and " 0 bodies changed rank" not in moved[0], f"newmark on 4 ranks: bodies changed rank ({moved})")
-same_frames(newmark[1][0], newmark[4][0], "newmark, 1 vs 4 ranks")
-same_history(newmark[1][0], newmark[4][0], "newmark, 1 vs 4 ranks")
+same_frames(c, newmark[1][0], newmark[4][0], "newmark, 1 vs 4 ranks")
+same_history(c, newmark[1][0], newmark[4][0], "newmark, 1 vs 4 ranks")
 
 # Restarts across rank counts: 4 -> 2, 4 -> 1 and 1 -> 4 from the first checkpoint.
 for written, continued in ((4, 2), (4, 1), (1, 4)):
@@ -159,10 +114,10 @@ for written, continued in ((4, 2), (4, 1), (1, 4)):
         if name.startswith("checkpoint_") and name not in ("checkpoint_000001.h5",):
             os.remove(os.path.join(out, name))
     run(continued, out, "--restart", os.path.join(out, "checkpoint_000001.h5"))
-    same_checkpoint(os.path.join(outs[1], "checkpoint_final.h5"), os.path.join(out, "checkpoint_final.h5"),
+    same_checkpoint(c, os.path.join(outs[1], "checkpoint_final.h5"), os.path.join(out, "checkpoint_final.h5"),
                     what + ", checkpoint_final")
-    same_frames(outs[1], out, what)
-    same_history(outs[1], out, what)
+    same_frames(c, outs[1], out, what)
+    same_history(c, outs[1], out, what)
 
 # Free flight is exact on every rank count (the anchors travel with the bodies).
 g = np.array([0.0, 0.0, -9.81])

@@ -94,3 +94,18 @@ if(RICOCHET_USE_HDF5)
   set_tests_properties(mpi.shared_startup_checks PROPERTIES LABELS "mpi;regression"
                        ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 300)
 endif()
+
+# Contacts between bodies of different ranks (cross-rank windows: ghosts, runs repeated to
+# the first time a ghost is needed, cross-rank impacts by the lower id's owner): face, edge,
+# a gas on 2-4 ranks with restarts across rank counts, the billiards break; the same files
+# as one rank, bit for bit; an impulse group across two brick faces stops with an error.
+if(RICOCHET_USE_HDF5)
+  set(workdir ${CMAKE_CURRENT_BINARY_DIR}/run/mpi_cross_rank_contacts)
+  file(MAKE_DIRECTORY ${workdir})
+  add_test(NAME mpi.cross_rank_contacts
+           COMMAND ${RICOCHET_PYTHON} ${CMAKE_CURRENT_SOURCE_DIR}/mpi/check_cross_rank_contacts.py
+                   $<TARGET_FILE:ricochet> ${workdir} ${MPIEXEC_EXECUTABLE} ${MPIEXEC_PREFLAGS}
+           WORKING_DIRECTORY ${workdir})
+  set_tests_properties(mpi.cross_rank_contacts PROPERTIES LABELS "mpi;regression"
+                       ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 600)
+endif()

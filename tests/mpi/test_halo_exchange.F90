@@ -86,7 +86,44 @@ contains
       call exchange_and_check(dom, full, versions, local, my_versions, rings, .true.)
     end do
     call exchange_and_check(dom, full, versions, local, my_versions, 1, .false.)
+    call payload_check(dom, full, local, my_versions)
   end subroutine one_decomposition
+
+  !> The caller's payload (what cross-rank windows send: the owner's rank and the flight
+  !> record) travels with every ghost bit for bit, next to its version: payload(:, k) of
+  !> owned row k is [gid * 7 + 3, the bits of x(3), rank], made again here from the full list.
+  subroutine payload_check(dom, full, local, my_versions)
+    type(domain_t), intent(in) :: dom
+    type(bodies_t), intent(in) :: full
+    type(bodies_t), intent(inout) :: local
+    integer(i8), intent(in) :: my_versions(:)
+    type(error_t) :: err
+    integer(i8), allocatable :: payload(:, :), ghost_payload(:, :), ghost_versions(:)
+    integer :: k, row, bad, owner
+    character(len=:), allocatable :: what
+    what = dims_text(dom%dims)//' rings 2 payload rank '//str(dom%rank)
+    allocate (payload(3, local%n_owned))
+    do k = 1, local%n_owned
+      payload(:, k) = [local%gid(k)*7_i8 + 3_i8, transfer(local%x(3, k), 1_i8), int(par%rank, i8)]
+    end do
+    call exchange_halo(par, dom, local, 2, err, my_versions, ghost_versions, payload=payload, &
+                       ghost_payload=ghost_payload)
+    call check(err%ok() .and. .not. par%any(err%failed()), what//': exchange succeeds')
+    call check(size(ghost_payload, 1) == 3 .and. size(ghost_payload, 2) == local%n_ghost, &
+               what//': a payload column per ghost')
+    if (size(ghost_payload, 2) /= local%n_ghost) return
+    bad = 0
+    do k = 1, local%n_ghost
+      row = row_of_gid(full, local%gid(local%n_owned + k))
+      owner = dom%owner_of(full%x(:, row))
+      if (any(ghost_payload(:, k) /= [full%gid(row)*7_i8 + 3_i8, transfer(full%x(3, row), 1_i8), &
+                                      int(owner, i8)])) bad = bad + 1
+    end do
+    call check(bad == 0, what//': payload carried bit for bit with its ghost ('//str(bad)//' wrong)')
+    ! payload without ghost_payload: an error on every rank, before any message
+    call exchange_halo(par, dom, local, 2, err, payload=payload)
+    call check(err%failed(), what//': payload alone is refused')
+  end subroutine payload_check
 
   !> Random bodies in and a little around the scene's bounds, then bodies on this
   !> decomposition's brick faces (each axis: a brick face, a box face or anywhere), every

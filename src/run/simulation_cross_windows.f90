@@ -1,0 +1,432 @@
+!> Cross-rank windows (docs/architecture.md, "Cross-rank contacts: windows with ghosts"): a
+!> decomposed run whose bodies may meet across bricks, for scenes without contact passes
+!> (elastic pairs, no gravity). Every window, from a time every rank has reached with every
+!> event before it processed:
+!>  1. start: every body to the rank of its brick (migration with its anchor), the halo of
+!>     two rings received as ghosts with their anchors and owners, the fixed bodies of the
+!>     scene added as ghosts where not held, and the local loop built over owned bodies and
+!>     ghosts keeping every anchor (pairs of two ghosts are their owners');
+!>  2. a speculative run to the next output time that stops at the first event needing a
+!>     ghost (an impact of a pair with a moving ghost, or an impulse group reaching one:
+!>     t_cross) or at a box crossing of an owned body within two bricks' boxes of a
+!>     neighbouring brick (t_halo: the ghosts no longer cover what may reach it);
+!>  3. t_stale: the first trajectory change of an owned body that other ranks hold as a
+!>     ghost (their copy is stale from then on);
+!>  4. one allreduce of t_cross and min(t_halo, t_stale): if both are at or after the
+!>     output time the window stands. Otherwise every rank restores the window's start and
+!>     runs again, to t_cross without the events there (if it comes first) or to the other
+!>     time with them; at t_cross the impacts needing ghosts are taken by the owner of the
+!>     pair's lower global id, with the ghosts (the cross phase), and the ghosts it changed
+!>     go to their owners, who take their new rows and anchors bit for bit.
+!> Why it is exact: within a window no rank's events depend on a ghost's new trajectory
+!> (t_stale), on a body it does not hold (t_halo with the brick size of cross_box_size), or
+!> on an impact another rank takes (t_cross); the run repeated from the start is the same
+!> deterministic run, cut earlier. Events are the one-rank run's, at the same times with the
+!> same bits, as long as building the loop again keeping the anchors changes no event
+!> (times of contact are functions of the two trajectories: time_of_contact's canonical
+!> crossing).
+submodule (simulation) simulation_cross_windows
+  use event_loop, only: CROSS_OFF, CROSS_SPECULATE, CROSS_RERUN, CROSS_PHASE, STOP_CROSS, STOP_HALO
+  use event_loop, only: event_stats_t
+  use halo_exchange, only: exchange_halo
+  use body_packing, only: pack_bodies, unpack_bodies, PACK_HEADER_WORDS
+  use sorting, only: sort_index_keys
+  implicit none
+
+  integer, parameter :: halo_rings = 2
+  real(dp), parameter :: never = 1.0e30_dp
+  !> windows in a row that end at the time they started before the run stops with an error
+  integer, parameter :: max_stuck_windows = 1000
+
+contains
+
+  module procedure cross_box_size
+    real(dp) :: r_max, band, h
+    integer :: i
+    r_max = 0.0_dp
+    do i = 1, everyone%n_owned
+      if (everyone%fixed(i)) cycle
+      r_max = max(r_max, self%shapes%shapes(everyone%shape_id(i))%bounding_radius)
+    end do
+    band = self%collisions%target + self%collisions%tolerance + self%collisions%contact_tolerance
+    h = self%collisions%box_size
+    ! (a relative 1e-6 for the round-off of box edges)
+    box = max(h, (2.0_dp*r_max + band + h)*(1.0_dp + 1.0e-6_dp))
+  end procedure cross_box_size
+
+  module procedure run_cross_windows
+    real(dp) :: t_end, t_output, t_hard, t_cross, t_late, t_v, clock
+    type(bodies_t) :: saved_bodies
+    type(free_flight_t) :: saved_flight
+    type(collision_stage_t) :: saved_stage
+    type(event_stats_t) :: saved_stats
+    integer, allocatable :: owner(:)
+    logical, allocatable :: frontier(:)
+    integer :: n_log, stuck
+    integer(i8) :: events_before
+    logical :: checkpointed, exclusive
+    t_end = self%deck%run%t_end
+    stuck = 0
+    ! (the impacts so far: a restart's count on rank 0, as the other counters)
+    self%events%stats%impacts = self%collisions%stats%events
+    do while (self%time < t_end)
+      t_output = min(t_end, self%next_output, self%next_history, self%next_checkpoint)
+      t_hard = min(t_end, self%next_checkpoint)
+      clock = par%wtime()
+      call start_window(self, par, t_hard, owner, frontier, err)
+      if (err%failed()) return
+      self%cross_wall(1) = self%cross_wall(1) + (par%wtime() - clock)
+      self%cross_count(1) = self%cross_count(1) + 1
+      ! the window's start, to come back to (the event log's rows are only appended: their count)
+      call save_state()
+      events_before = self%events%stats%impacts
+      self%events%cross_mode = CROSS_SPECULATE
+      call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_output, t_hard, err)
+      if (par%any(err%failed())) then
+        if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank window failed on another rank')
+        return
+      end if
+      t_cross = never
+      t_late = never
+      if (self%events%stop_kind == STOP_CROSS) t_cross = self%events%stop_time
+      if (self%events%stop_kind == STOP_HALO) t_late = self%events%stop_time
+      t_late = min(t_late, stale_time(self, frontier))
+      t_cross = par%min(t_cross)
+      t_late = par%min(t_late)
+      if (t_cross > t_output .and. t_late >= t_output) then
+        ! the window stands: every event up to the output time is the one-rank run's
+        self%time = t_output
+      else
+        clock = par%wtime()
+        self%cross_count(2) = self%cross_count(2) + 1
+        exclusive = t_cross <= t_late
+        t_v = min(t_cross, t_late)
+        call restore_state()
+        call build_loop(self, t_hard, err)
+        if (err%failed()) return
+        self%events%cross_mode = CROSS_RERUN
+        call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err, &
+                                   exclusive=exclusive)
+        if (par%any(err%failed())) then
+          if (err%ok()) call err%set(ERR_INTERNAL, 'a repeated cross-rank window failed on another rank')
+          return
+        end if
+        if (exclusive) then
+          ! the cross phase: every event at t_v, those needing ghosts by the lower id's owner
+          self%cross_count(3) = self%cross_count(3) + 1
+          self%events%cross_mode = CROSS_PHASE
+          call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err)
+          if (par%any(err%failed())) then
+            if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank impact failed on another rank')
+            return
+          end if
+          call send_ghost_updates(self, par, owner, t_v, err)
+          if (err%failed()) return
+        end if
+        if (t_v <= self%time) then
+          stuck = stuck + 1
+          if (stuck > max_stuck_windows) then
+            call err%set(ERR_INTERNAL, 'cross-rank windows: '//str(max_stuck_windows)//' windows in a row ended '// &
+                         'at t = '//str(self%time)//' s where they started (last pair '// &
+                         str(self%events%stop_pair(1))//', '//str(self%events%stop_pair(2))//')')
+            return
+          end if
+        else
+          stuck = 0
+        end if
+        self%time = t_v
+        self%cross_wall(2) = self%cross_wall(2) + (par%wtime() - clock)
+      end if
+      self%events%cross_mode = CROSS_OFF
+      ! (events of every rank: the same count on any number of ranks)
+      self%step = self%step + par%sum(self%events%stats%impacts - events_before)
+      self%collisions%stats%events = self%events%stats%impacts
+      if (self%time < t_output) cycle
+      ! the outputs at t_output: owned bodies only, evaluated there
+      self%bodies%n_ghost = 0
+      self%last_dt = self%time - self%previous_stop
+      self%previous_stop = self%time
+      call evaluate_owned(self)
+      call write_due_outputs(self, par, t_end, checkpointed, err)
+      if (err%failed()) return
+      if (checkpointed) call anchor_owned(self)
+      call progress(self, par)
+      call stop_if_requested(self, par, err)
+      if (self%stop_code /= 0 .or. err%failed()) return
+    end do
+    self%bodies%n_ghost = 0
+    call self%write_checkpoint_now(par, 'checkpoint_final', err)
+    if (err%ok()) call write_events(self, par, err)
+  contains
+    subroutine save_state()
+      saved_bodies = self%bodies
+      saved_flight = self%propagator
+      n_log = self%collisions%n_log
+      ! (the log's rows are not copied: a repeated run overwrites those past n_log)
+      block
+        real(dp), allocatable :: rows(:, :)
+        if (allocated(self%collisions%log_rows)) call move_alloc(self%collisions%log_rows, rows)
+        saved_stage = self%collisions
+        if (allocated(rows)) call move_alloc(rows, self%collisions%log_rows)
+      end block
+      saved_stats = self%events%stats
+    end subroutine save_state
+    subroutine restore_state()
+      real(dp), allocatable :: rows(:, :)
+      self%bodies = saved_bodies
+      self%propagator = saved_flight
+      if (allocated(self%collisions%log_rows)) call move_alloc(self%collisions%log_rows, rows)
+      self%collisions = saved_stage
+      if (allocated(rows)) call move_alloc(rows, self%collisions%log_rows)
+      self%collisions%n_log = n_log
+      self%events%stats = saved_stats
+    end subroutine restore_state
+  end procedure run_cross_windows
+
+  !> Every owned moving body evaluated at self%time from its anchor.
+  subroutine evaluate_owned(self)
+    type(simulation_t), intent(inout) :: self
+    integer :: i
+    do i = 1, self%bodies%n_owned
+      if (self%bodies%fixed(i) .or. .not. self%propagator%is_anchored(i)) cycle
+      call self%propagator%evaluate(self%bodies, i, self%time, self%deck%run%gravity)
+    end do
+  end subroutine evaluate_owned
+
+  !> Every owned moving body anchored afresh at self%time (after a checkpoint: as a restart
+  !> from it anchors them, and as the one-rank loop, built again there, does).
+  subroutine anchor_owned(self)
+    type(simulation_t), intent(inout) :: self
+    integer :: i
+    do i = 1, self%bodies%n_owned
+      if (.not. self%bodies%fixed(i)) call self%propagator%anchor_at(self%bodies, i, self%time)
+    end do
+  end subroutine anchor_owned
+
+  !> A window's start at self%time: migration, ghosts (halo and fixed bodies), the loop.
+  !> owner(row): the rank owning each row (ghosts: the rank that sent it; -1: a fixed body
+  !> every rank holds). frontier(row): an owned body that other ranks hold as a ghost.
+  subroutine start_window(self, par, t_hard, owner, frontier, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    real(dp), intent(in) :: t_hard
+    integer, allocatable, intent(out) :: owner(:)
+    logical, allocatable, intent(out) :: frontier(:)
+    type(error_t), intent(inout) :: err
+    integer(i8), allocatable :: payload(:, :), sent(:, :), received(:, :), words(:, :), held(:, :)
+    integer, allocatable :: rows(:), order(:)
+    integer :: n_words, i, k, n_owned, n_halo, lo, hi, mid
+    logical :: found
+    self%bodies%n_ghost = 0
+    call evaluate_owned(self)
+    call self%propagator%pack_anchors(self%bodies%n_owned, payload)
+    call migrate_bodies(par, self%dom, self%bodies, err, stats=self%migration, payload=payload)
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'migration failed on another rank')
+      return
+    end if
+    n_owned = self%bodies%n_owned
+    n_words = size(payload, 1)
+    allocate (sent(1 + n_words, n_owned))
+    sent(1, :) = par%rank
+    sent(2:, :) = payload(:, 1:n_owned)
+    call exchange_halo(par, self%dom, self%bodies, halo_rings, err, payload=sent, ghost_payload=received)
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'halo exchange failed on another rank')
+      return
+    end if
+    n_halo = self%bodies%n_ghost
+    ! the fixed bodies no row holds yet (statics and the rows held are both in gid order
+    ! per part: a binary search of each static's gid among the rows held)
+    allocate (held(1, n_owned + n_halo))
+    held(1, :) = self%bodies%gid(1:n_owned + n_halo)
+    call sort_index_keys(held, order)
+    allocate (rows(0))
+    do k = 1, self%statics%n_owned
+      lo = 1
+      hi = size(order)
+      found = .false.
+      do while (lo <= hi)
+        mid = (lo + hi)/2
+        if (held(1, order(mid)) == self%statics%gid(k)) then
+          found = .true.
+          exit
+        else if (held(1, order(mid)) < self%statics%gid(k)) then
+          lo = mid + 1
+        else
+          hi = mid - 1
+        end if
+      end do
+      if (.not. found) rows = [rows, k]
+    end do
+    if (size(rows) > 0) call self%bodies%append_rows(self%statics, rows, .true.)
+    ! every row's flight record (a fixed body has none: zeros)
+    allocate (words(n_words, self%bodies%n_total()), owner(self%bodies%n_total()))
+    words = 0
+    words(:, 1:n_owned) = payload(:, 1:n_owned)
+    if (n_halo > 0) words(:, n_owned + 1:n_owned + n_halo) = received(2:, 1:n_halo)
+    call self%propagator%unpack_anchors(words, self%deck%integrator)
+    owner = -1
+    owner(1:n_owned) = par%rank
+    if (n_halo > 0) owner(n_owned + 1:n_owned + n_halo) = int(received(1, 1:n_halo))
+    call build_loop(self, t_hard, err)
+    if (err%failed()) return
+    ! owned bodies a neighbour holds as ghosts: within halo_rings boxes of a side with one
+    allocate (frontier(n_owned))
+    do i = 1, n_owned
+      frontier(i) = near_neighbour(self%dom, self%bodies%x(:, i), halo_rings)
+    end do
+  end subroutine start_window
+
+  !> The loop built over the rows held at self%time, every anchor kept, ghosts marked, and
+  !> the watch region of halo stops set (owned bodies within two boxes of the bricks of a
+  !> side with a neighbour: see cross_box_size).
+  subroutine build_loop(self, t_hard, err)
+    type(simulation_t), intent(inout) :: self
+    real(dp), intent(in) :: t_hard
+    type(error_t), intent(inout) :: err
+    type(box_range_t) :: mine
+    real(dp) :: h, reach
+    integer :: k
+    call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
+                          self%deck%integrator, self%time, self%deck%run%dt_max, t_hard, err, keep_anchors=.true.)
+    if (err%failed()) return
+    mine = self%dom%brick(self%dom%rank)
+    h = self%dom%h
+    reach = halo_rings*h - 0.5_dp*self%collisions%box_size - 2.0_dp*r_max_moving(self) - &
+            (self%collisions%target + self%collisions%tolerance + self%collisions%contact_tolerance)
+    do k = 1, 3
+      self%events%watch_lo(k) = -never
+      self%events%watch_hi(k) = never
+      self%events%complete_lo(k) = -never
+      self%events%complete_hi(k) = never
+      if (self%dom%face_neighbour(2*k - 1) >= 0) then
+        self%events%watch_lo(k) = real(mine%lo(k) + halo_rings, dp)*h
+        self%events%complete_lo(k) = real(mine%lo(k), dp)*h - reach
+      end if
+      if (self%dom%face_neighbour(2*k) >= 0) then
+        self%events%watch_hi(k) = real(mine%hi(k) + 1 - halo_rings, dp)*h
+        self%events%complete_hi(k) = real(mine%hi(k) + 1, dp)*h + reach
+      end if
+    end do
+  end subroutine build_loop
+
+  !> The largest bounding radius of a moving body held (owned or ghost) [m].
+  real(dp) function r_max_moving(self) result(r_max)
+    type(simulation_t), intent(in) :: self
+    integer :: i
+    r_max = 0.0_dp
+    do i = 1, self%bodies%n_total()
+      if (.not. self%bodies%fixed(i)) r_max = max(r_max, self%shapes%shapes(self%bodies%shape_id(i))%bounding_radius)
+    end do
+  end function r_max_moving
+
+  !> Whether point lies within rings boxes of a side of this rank's brick that has a
+  !> neighbouring brick (what the halo exchange sends to it).
+  logical function near_neighbour(dom, point, rings) result(near)
+    type(domain_t), intent(in) :: dom
+    real(dp), intent(in) :: point(3)
+    integer, intent(in) :: rings
+    type(box_range_t) :: mine
+    integer(i8) :: box(3)
+    integer :: k
+    mine = dom%brick(dom%rank)
+    box = dom%box_of(point)
+    near = .false.
+    do k = 1, 3
+      if (dom%face_neighbour(2*k - 1) >= 0 .and. box(k) - mine%lo(k) < rings) near = .true.
+      if (dom%face_neighbour(2*k) >= 0 .and. mine%hi(k) - box(k) < rings) near = .true.
+    end do
+  end function near_neighbour
+
+  !> The first trajectory change in this window of an owned body other ranks hold [s].
+  real(dp) function stale_time(self, frontier) result(t)
+    type(simulation_t), intent(in) :: self
+    logical, intent(in) :: frontier(:)
+    integer :: i
+    t = never
+    do i = 1, min(size(frontier), self%bodies%n_owned)
+      if (frontier(i) .and. .not. self%bodies%fixed(i)) t = min(t, self%events%first_change(i))
+    end do
+  end function stale_time
+
+  !> After a cross phase at t: every ghost whose trajectory this rank changed goes to its
+  !> owner (row and flight record, one alltoallv), who takes both bit for bit. A body
+  !> changed at t by two ranks (its owner, or two others) would need their groups solved
+  !> together: an error naming it (not built yet; no validation scene has one).
+  subroutine send_ghost_updates(self, par, owner, t, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    integer, intent(in) :: owner(:)
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer(i8), allocatable :: words(:, :), got(:, :)
+    real(dp), allocatable :: send(:), part(:), recv(:)
+    integer, allocatable :: counts(:), rows(:)
+    logical, allocatable :: updated(:)
+    type(bodies_t) :: arrived
+    integer :: n_total, r, i, k, o, n_words, row
+    integer(i8) :: n8, w8
+    n_total = self%bodies%n_total()
+    call self%propagator%pack_anchors(n_total, words)
+    allocate (counts(0:par%n_ranks - 1), send(0))
+    do r = 0, par%n_ranks - 1
+      rows = pack([(i, i=1, n_total)], [(i > self%bodies%n_owned .and. owner(i) == r .and. &
+                                         self%events%first_change(i) <= t, i=1, n_total)])
+      counts(r) = 0
+      if (size(rows) == 0) cycle
+      call pack_bodies(self%bodies, rows, part, words)
+      counts(r) = size(part)
+      send = [send, part]
+      self%cross_count(4) = self%cross_count(4) + size(rows)
+    end do
+    call par%alltoallv(send, counts, recv, err)
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'sending cross-rank impacts failed on another rank')
+      return
+    end if
+    allocate (updated(self%bodies%n_owned))
+    updated = .false.
+    o = 0
+    do while (o + PACK_HEADER_WORDS <= size(recv))
+      n8 = transfer(recv(o + 2), 1_i8)
+      w8 = transfer(recv(o + 3), 1_i8)
+      n_words = int(PACK_HEADER_WORDS + n8*w8)
+      call arrived%free()
+      call arrived%allocate(int(n8))
+      arrived%n_owned = 0
+      arrived%n_ghost = 0
+      call unpack_bodies(recv(o + 1:o + n_words), arrived, .false., err, extra=got)
+      if (err%failed()) exit
+      do k = 1, arrived%n_owned
+        row = 0
+        do i = 1, self%bodies%n_owned
+          if (self%bodies%gid(i) == arrived%gid(k)) then
+            row = i
+            exit
+          end if
+        end do
+        if (row == 0) then
+          call err%set(ERR_INTERNAL, 'cross-rank impact at t = '//str(t)//' s: body '//str(arrived%gid(k))// &
+                       ' is not owned by the rank its new trajectory was sent to')
+          exit
+        end if
+        if (updated(row) .or. self%events%first_change(row) <= t) then
+          call err%set(ERR_INTERNAL, 'cross-rank impacts at t = '//str(t)//' s: body '//str(arrived%gid(k))// &
+                       ' was changed by two ranks at once (impulse groups spanning ranks at one time are '// &
+                       'not built yet)')
+          exit
+        end if
+        updated(row) = .true.
+        call copy_row(arrived, k, self%bodies, row)
+        call self%propagator%set_record(row, got(:, k))
+      end do
+      if (err%failed()) exit
+      o = o + n_words
+    end do
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank impact failed on another rank')
+    end if
+  end subroutine send_ghost_updates
+
+end submodule simulation_cross_windows
