@@ -34,6 +34,10 @@ module time_of_contact
     real(dp) :: normal(3) = 0.0_dp    !< normal there, from a to b
     integer :: iterations = 0         !< closest-point queries made
     logical :: capped = .false.       !< stopped by the iteration cap (time is still safe)
+    !> the canonical time of contact as an absolute time (canonical_crossing), -huge if none:
+    !> origin + time gives it back only where the sum is exact, and a caller that stores
+    !> absolute times takes it from here, so that it does not depend on the origin [s]
+    real(dp) :: t_absolute = -huge(1.0_dp)
   end type advancement_result_t
 
   !> Closest points of the pair with both bodies moved forward by t from the step's start.
@@ -504,6 +508,7 @@ contains
     ! (below the target never: a point within eps_gap of the aim is far above it)
     if (best_g < target .or. best_t > limit) return
     ! relative to the origin, so that origin + t gives best_t back exactly where it can
+    result%t_absolute = best_t
     t = best_t - oracle%origin
     if (oracle%origin + t > best_t) t = nearest(t, -1.0_dp)
     if (oracle%origin + t < best_t) t = nearest(t, 1.0_dp)

@@ -134,8 +134,28 @@ module event_loop
     integer :: stop_kind = STOP_NONE             !< why run_until stopped early
     real(dp) :: stop_time = far_future           !< ... and when [s]
     integer(i8) :: stop_pair(2) = 0              !< the pair (global ids) of a STOP_CROSS
-    !> an owned body's box crossing outside [watch_lo, watch_hi] is a STOP_HALO [m]
+    integer, allocatable :: stop_rows(:)         !< ... and the moving ghosts it needs (rows)
+    integer :: n_stop_rows = 0
+    !> CROSS_RERUN: an impact needing a ghost at or after this time stops the run (the
+    !> caller's repeated run ends there, this rank's events at it left for the next window);
+    !> before it, one is an internal error [s]
+    real(dp) :: rerun_to = far_future
+    !> per row: when the ghost's owner changed its trajectory in this window (far_future: not,
+    !> or not known); a cross phase's impulse group with a ghost changed by then is left to
+    !> the next window, whose ghosts are fresh [s]
+    real(dp), allocatable :: ghost_changed_at(:)
+    integer(i8) :: deferred = 0                  !< cross-phase impacts left to the next window
+    !> A box crossing of an owned body is a STOP_HALO (the ghosts the rank holds may no longer
+    !> cover what can reach it, or a neighbour may no longer hold a body that can reach its
+    !> own) where: a body other ranks hold as a ghost (in_zone) is outside [brick_lo,
+    !> brick_hi], its owner's brick; any other is outside [watch_lo, watch_hi], the brick
+    !> without the zone the halo exchange sends [m]
     real(dp) :: watch_lo(3) = -far_future, watch_hi(3) = far_future
+    real(dp) :: brick_lo(3) = -far_future, brick_hi(3) = far_future
+    logical, allocatable :: in_zone(:)
+    !> (owned row, ghost row) of every pair made with a moving ghost since init
+    integer, allocatable :: cross_pairs(:, :)
+    integer :: n_cross_pairs = 0
     !> a ghost in an impulse group of the cross phase must lie in [complete_lo, complete_hi]:
     !> every body within the band of it is then held here [m]
     real(dp) :: complete_lo(3) = -far_future, complete_hi(3) = far_future
@@ -147,6 +167,8 @@ module event_loop
     procedure :: synchronize => loop_synchronize
     procedure :: next_event_time => loop_next_event_time
     procedure :: bodies_unchanged => loop_bodies_unchanged
+    procedure :: take_trajectories => loop_take_trajectories
+    procedure :: start_cross_window => loop_start_cross_window
   end type event_loop_t
 
 contains
@@ -220,6 +242,9 @@ contains
     self%n_owned = bodies%n_owned
     self%stop_kind = STOP_NONE
     self%stop_time = far_future
+    self%n_cross_pairs = 0
+    self%n_stop_rows = 0
+    if (allocated(self%ghost_changed_at)) deallocate (self%ghost_changed_at)
     if (allocated(self%first_change)) deallocate (self%first_change)
     allocate (self%first_change(n))
     self%first_change = far_future
@@ -249,6 +274,7 @@ contains
         if (.not. held_pair(self, bodies, i, self%found(j))) cycle
         if (self%pairs%find(i, self%found(j)) > 0) cycle
         slot = self%pairs%add(i, self%found(j), bodies%gid(i), bodies%gid(self%found(j)))
+        call note_cross_pair(self, bodies, i, self%found(j))
       end do
     end do
     call ensure_pair_marks(self)
@@ -313,6 +339,7 @@ contains
     logical :: kept
     n = bodies%n_owned + bodies%n_ghost
     self%n_owned = bodies%n_owned
+    self%n_cross_pairs = 0
     rebuilt = .false.
     call self%islands%remap_bodies(new_index, kept)
     if (.not. kept) then
@@ -411,6 +438,7 @@ contains
         if (.not. held_pair(self, bodies, ni, j)) cycle
         if (self%pairs%find(ni, j) > 0) cycle
         slot = self%pairs%add(ni, j, bodies%gid(ni), bodies%gid(j))
+        call note_cross_pair(self, bodies, ni, j)
         call push(new_slots, n_new_slots, slot)
       end do
     end do
@@ -527,7 +555,7 @@ contains
             ! an owned body near a neighbouring brick has used up its margin: the halo
             ! the ghosts came from no longer covers what may reach it (the caller's window)
             call sync(self, bodies, flight, handle, t)
-            if (any(bodies%x(:, handle) < self%watch_lo) .or. any(bodies%x(:, handle) > self%watch_hi)) then
+            if (halo_left(self, bodies, handle)) then
               self%stop_kind = STOP_HALO
               self%stop_time = t
             end if
@@ -573,14 +601,14 @@ contains
     b = self%pairs%b(slot)
     if (.not. (is_moving_ghost(self, bodies, a) .or. is_moving_ghost(self, bodies, b))) return
     select case (self%cross_mode)
-    case (CROSS_SPECULATE)
+    case (CROSS_SPECULATE, CROSS_RERUN)
+      if (self%cross_mode == CROSS_RERUN .and. t < self%rerun_to) then
+        call err%set(ERR_INTERNAL, 'cross-rank window: bodies '//str(bodies%gid(a))//' and '//str(bodies%gid(b))// &
+                     ' meet at t = '//str(t)//' s in a run repeated to an earlier time')
+        return
+      end if
       what = CROSS_STOP
-      self%stop_kind = STOP_CROSS
-      self%stop_time = t
-      self%stop_pair = [min(bodies%gid(a), bodies%gid(b)), max(bodies%gid(a), bodies%gid(b))]
-    case (CROSS_RERUN)
-      call err%set(ERR_INTERNAL, 'cross-rank window: bodies '//str(bodies%gid(a))//' and '//str(bodies%gid(b))// &
-                   ' meet at t = '//str(t)//' s in a run repeated to an earlier time')
+      call stop_for_cross(self, bodies, a, b, [a, b], t)
     case (CROSS_PHASE)
       lower = a
       if (bodies%gid(b) < bodies%gid(a)) lower = b
@@ -603,6 +631,72 @@ contains
     integer, intent(in) :: i, j
     held_pair = (i <= self%n_owned .and. .not. bodies%fixed(i)) .or. (j <= self%n_owned .and. .not. bodies%fixed(j))
   end function held_pair
+
+  !> Whether owned body i (at its present position) has left what the halo exchange at the
+  !> window's start covers (see in_zone).
+  logical function halo_left(self, bodies, i)
+    type(event_loop_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    logical :: zone
+    zone = .false.
+    if (allocated(self%in_zone)) then
+      if (i <= size(self%in_zone)) zone = self%in_zone(i)
+    end if
+    if (zone) then
+      halo_left = any(bodies%x(:, i) < self%brick_lo) .or. any(bodies%x(:, i) > self%brick_hi)
+    else
+      halo_left = any(bodies%x(:, i) < self%watch_lo) .or. any(bodies%x(:, i) > self%watch_hi)
+    end if
+  end function halo_left
+
+  !> A pair of rows i and j was made: noted if it is one of an owned body and a moving ghost.
+  subroutine note_cross_pair(self, bodies, i, j)
+    type(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i, j
+    integer, allocatable :: grown(:, :)
+    integer :: o, g
+    if (self%n_owned >= bodies%n_owned + bodies%n_ghost) return
+    if (is_moving_ghost(self, bodies, i) .and. j <= self%n_owned) then
+      o = j
+      g = i
+    else if (is_moving_ghost(self, bodies, j) .and. i <= self%n_owned) then
+      o = i
+      g = j
+    else
+      return
+    end if
+    if (.not. allocated(self%cross_pairs)) allocate (self%cross_pairs(2, 64))
+    if (self%n_cross_pairs == size(self%cross_pairs, 2)) then
+      allocate (grown(2, 2*size(self%cross_pairs, 2)))
+      grown(:, 1:self%n_cross_pairs) = self%cross_pairs(:, 1:self%n_cross_pairs)
+      call move_alloc(grown, self%cross_pairs)
+    end if
+    self%n_cross_pairs = self%n_cross_pairs + 1
+    self%cross_pairs(:, self%n_cross_pairs) = [o, g]
+  end subroutine note_cross_pair
+
+  !> The run stops at t for the impact of rows a and b, which needs the moving ghosts among
+  !> rows(:) (STOP_CROSS).
+  subroutine stop_for_cross(self, bodies, a, b, rows, t)
+    type(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: a, b, rows(:)
+    real(dp), intent(in) :: t
+    integer :: k
+    self%stop_kind = STOP_CROSS
+    self%stop_time = t
+    self%stop_pair = [min(bodies%gid(a), bodies%gid(b)), max(bodies%gid(a), bodies%gid(b))]
+    if (allocated(self%stop_rows)) deallocate (self%stop_rows)
+    allocate (self%stop_rows(size(rows)))
+    self%n_stop_rows = 0
+    do k = 1, size(rows)
+      if (.not. is_moving_ghost(self, bodies, rows(k))) cycle
+      self%n_stop_rows = self%n_stop_rows + 1
+      self%stop_rows(self%n_stop_rows) = rows(k)
+    end do
+  end subroutine stop_for_cross
 
   !> Row i is another rank's moving body.
   pure logical function is_moving_ghost(self, bodies, i)
@@ -667,6 +761,42 @@ contains
       self%stats%output_evaluations = self%stats%output_evaluations + 1
     end do
   end subroutine loop_synchronize
+
+  !> Owned rows list(:) took new trajectories at t that another rank computed (a cross-rank
+  !> impact: their rows and flight records are set): new versions, placed again where they
+  !> moved, their pairs certified again, their crossings scheduled.
+  subroutine loop_take_trajectories(self, stage, bodies, shapes, flight, list, t, err)
+    class(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: list(:)
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer :: k
+    do k = 1, size(list)
+      self%state_time(list(k)) = t
+      self%version(list(k)) = self%version(list(k)) + 1
+      self%changes(list(k)) = self%changes(list(k)) + 1
+      self%stats%trajectory_changes = self%stats%trajectory_changes + 1
+    end do
+    call settle_changed(self, stage, bodies, shapes, flight, list, t, err)
+  end subroutine loop_take_trajectories
+
+  !> A cross-rank window starts (after remap_bodies brought the ghosts in): nothing has
+  !> changed in it yet, no stop; the pairs with ghosts were noted as remap made them.
+  subroutine loop_start_cross_window(self, bodies)
+    class(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    if (allocated(self%first_change)) deallocate (self%first_change)
+    allocate (self%first_change(bodies%n_owned + bodies%n_ghost))
+    self%first_change = far_future
+    self%stop_kind = STOP_NONE
+    self%stop_time = far_future
+    self%n_stop_rows = 0
+    if (allocated(self%ghost_changed_at)) deallocate (self%ghost_changed_at)
+  end subroutine loop_start_cross_window
 
   !> How many bodies kept the trajectory they had when the loop was built (this run).
   pure integer function loop_bodies_unchanged(self, bodies) result(count_unchanged)
@@ -803,6 +933,7 @@ contains
       if (.not. held_pair(self, bodies, i, j)) cycle
       if (self%pairs%find(i, j) > 0) cycle
       slot = self%pairs%add(i, j, bodies%gid(i), bodies%gid(j))
+      call note_cross_pair(self, bodies, i, j)
       call ensure_pair_marks(self)
       call certify(self, stage, bodies, shapes, flight, slot, t, err)
       if (err%failed()) return
@@ -1054,7 +1185,11 @@ contains
                                  queries_per_certificate, res)
     if (res%capped) stage%stats%capped = stage%stats%capped + 1
     if (res%contact .or. (res%capped .and. res%time == 0.0_dp)) then
-      call set_action(self, bodies, slot, ACTION_IMPACT, t + res%time)
+      due = t + res%time
+      ! (the canonical time itself where t + res%time rounds to a neighbour of it: the same
+      ! time from any certificate's start, so on any rank and after any window's start)
+      if (res%contact .and. abs(res%t_absolute - due) <= 4.0_dp*spacing(due)) due = res%t_absolute
+      call set_action(self, bodies, slot, ACTION_IMPACT, due)
     else if (t + res%time >= min(self%expiry(a), self%expiry(b))) then
       ! certified up to where a trajectory ends (the island step there certifies it again)
       call set_action(self, bodies, slot, ACTION_NONE, far_future, until=min(self%expiry(a), self%expiry(b)))
@@ -1272,17 +1407,23 @@ contains
       ! a group of owned bodies reaching another rank's: as a pair with a ghost (see
       ! cross_impact_due); the state is the caller's to restore
       if (any([(is_moving_ghost(self, bodies, group(k)), k=1, n_group)])) then
-        if (self%cross_mode == CROSS_RERUN) then
+        if (self%cross_mode == CROSS_RERUN .and. t < self%rerun_to) then
           call err%set(ERR_INTERNAL, 'cross-rank window: the impulse group of bodies '// &
                        str(bodies%gid(self%pairs%a(slot)))//' and '//str(bodies%gid(self%pairs%b(slot)))// &
                        ' reaches another rank''s body at t = '//str(t)//' s in a run repeated to an earlier time')
           return
         end if
-        self%stop_kind = STOP_CROSS
-        self%stop_time = t
-        self%stop_pair = [min(bodies%gid(self%pairs%a(slot)), bodies%gid(self%pairs%b(slot))), &
-                          max(bodies%gid(self%pairs%a(slot)), bodies%gid(self%pairs%b(slot)))]
+        call stop_for_cross(self, bodies, self%pairs%a(slot), self%pairs%b(slot), group(1:n_group), t)
         return
+      end if
+    end if
+    if (self%cross_mode == CROSS_PHASE .and. allocated(self%ghost_changed_at)) then
+      ! a ghost its owner changed by now: this rank's copy is stale; the next window's is not
+      if (any([(is_moving_ghost(self, bodies, group(k)), k=1, n_group)])) then
+        if (any([(self%ghost_changed_at(group(k)) <= t, k=1, n_group)])) then
+          self%deferred = self%deferred + 1
+          return
+        end if
       end if
     end if
     ! islands touched: their steps end here, what their passes gave for the rest taken back

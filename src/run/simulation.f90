@@ -109,6 +109,7 @@ module simulation
     !> lower global id, the new anchors of ghosts sent to their owners.
     logical :: cross_windows = .false.
     type(bodies_t) :: statics                 !< every fixed body of the scene (ghosts on every rank)
+    logical, allocatable :: zone(:)           !< per owned row: other ranks hold it as a ghost
     integer(i8) :: cross_count(4) = 0         !< windows, repeated (rolled back), cross phases, ghost updates sent
     real(dp) :: cross_wall(2) = 0.0_dp        !< wall in window starts (migration, halo, loop built), in repeated runs [s]
     logical :: restarted = .false.

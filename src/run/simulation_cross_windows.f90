@@ -2,29 +2,34 @@
 !> decomposed run whose bodies may meet across bricks, for scenes without contact passes
 !> (elastic pairs, no gravity). Every window, from a time every rank has reached with every
 !> event before it processed:
-!>  1. start: every body to the rank of its brick (migration with its anchor), the halo of
-!>     two rings received as ghosts with their anchors and owners, the fixed bodies of the
-!>     scene added as ghosts where not held, and the local loop built over owned bodies and
-!>     ghosts keeping every anchor (pairs of two ghosts are their owners');
-!>  2. a speculative run to the next output time that stops at the first event needing a
-!>     ghost (an impact of a pair with a moving ghost, or an impulse group reaching one:
-!>     t_cross) or at a box crossing of an owned body within two bricks' boxes of a
-!>     neighbouring brick (t_halo: the ghosts no longer cover what may reach it);
-!>  3. t_stale: the first trajectory change of an owned body that other ranks hold as a
-!>     ghost (their copy is stale from then on);
-!>  4. one allreduce of t_cross and min(t_halo, t_stale): if both are at or after the
-!>     output time the window stands. Otherwise every rank restores the window's start and
-!>     runs again, to t_cross without the events there (if it comes first) or to the other
-!>     time with them; at t_cross the impacts needing ghosts are taken by the owner of the
-!>     pair's lower global id, with the ghosts (the cross phase), and the ghosts it changed
-!>     go to their owners, who take their new rows and anchors bit for bit.
-!> Why it is exact: within a window no rank's events depend on a ghost's new trajectory
-!> (t_stale), on a body it does not hold (t_halo with the brick size of cross_box_size), or
-!> on an impact another rank takes (t_cross); the run repeated from the start is the same
-!> deterministic run, cut earlier. Events are the one-rank run's, at the same times with the
-!> same bits, as long as building the loop again keeping the anchors changes no event
-!> (times of contact are functions of the two trajectories: time_of_contact's canonical
-!> crossing).
+!>  1. start: every body to the rank of its brick (migration with its anchor and version),
+!>     the halo of two rings received as ghosts with their anchors and owners, the fixed
+!>     bodies of the scene added as ghosts where not held; the loop follows (remap_bodies:
+!>     owned pairs keep their certificates, the ghosts' pairs are made and certified; pairs
+!>     of two ghosts are their owners');
+!>  2. a speculative run to the next output time that stops at the first impact needing a
+!>     moving ghost (its pair, or its impulse group: t_cross) or at a box crossing that
+!>     leaves what the halo covers (t_halo: a body held as a ghost elsewhere leaving its
+!>     brick, or another body coming within two boxes of a neighbouring brick);
+!>  3. the owned bodies other ranks hold that changed go to the neighbours (gid, first
+!>     change): t_both, the first time both bodies of a pair with a ghost follow trajectories
+!>     the other rank has not seen; a t_cross whose ghost had changed by then is void (the
+!>     time of that change counts instead);
+!>  4. one allreduce of t_cross and min(t_halo, t_both): if both are at or after the output
+!>     time the window stands. Otherwise every rank restores the window's start (bodies,
+!>     flight records, the loop, the stage's counters) and runs again, to t_cross without
+!>     the events there (if it comes first) or to the other time with them; at t_cross the
+!>     impacts needing ghosts are taken by the owner of the pair's lower global id with the
+!>     ghosts (the cross phase), and the ghosts it changed go to their owners, who take
+!>     their new rows and anchors bit for bit.
+!> Why it is exact: within a window a pair with a ghost is certified by the rank whose body
+!> changed, against the ghost's trajectory, right until both changed (t_both); no rank's
+!> event depends on a body it does not hold (t_halo, with the brick size of cross_box_size)
+!> or on an impact another rank takes (t_cross); the run repeated from the start is the
+!> same deterministic run, cut earlier. Events are the one-rank run's, at the same times
+!> with the same bits: times of contact are functions of the two trajectories
+!> (time_of_contact's canonical crossing, taken as an absolute time), whatever certificate
+!> found them.
 submodule (simulation) simulation_cross_windows
   use event_loop, only: CROSS_OFF, CROSS_SPECULATE, CROSS_RERUN, CROSS_PHASE, STOP_CROSS, STOP_HALO
   use event_loop, only: event_stats_t
@@ -58,10 +63,13 @@ contains
     real(dp) :: t_end, t_output, t_hard, t_cross, t_late, t_v, clock
     type(bodies_t) :: saved_bodies
     type(free_flight_t) :: saved_flight
-    type(collision_stage_t) :: saved_stage
-    type(event_stats_t) :: saved_stats
+    type(collision_stage_t) :: saved_stage   ! (its counters and sleeping state only)
+    type(event_loop_t) :: saved_loop
     integer, allocatable :: owner(:)
     logical, allocatable :: frontier(:)
+    real(dp), allocatable :: changed_at(:)
+    integer(i8), allocatable :: versions(:)
+    real(dp) :: t_stale
     integer :: n_log, stuck
     integer(i8) :: events_before
     logical :: checkpointed, exclusive
@@ -90,7 +98,18 @@ contains
       t_late = never
       if (self%events%stop_kind == STOP_CROSS) t_cross = self%events%stop_time
       if (self%events%stop_kind == STOP_HALO) t_late = self%events%stop_time
-      t_late = min(t_late, stale_time(self, frontier))
+      call exchange_changes(self, par, frontier, changed_at, err)
+      if (err%failed()) return
+      t_late = min(t_late, both_changed_time(self, changed_at))
+      if (t_cross < never .and. self%events%n_stop_rows > 0) then
+        ! a cross-rank impact with a ghost its owner had changed by then is none: this rank's
+        ! copy is stale from that change on (the next window's ghosts are fresh)
+        t_stale = minval(changed_at(self%events%stop_rows(1:self%events%n_stop_rows)))
+        if (t_stale <= t_cross) then
+          t_late = min(t_late, t_stale)
+          t_cross = never
+        end if
+      end if
       t_cross = par%min(t_cross)
       t_late = par%min(t_late)
       if (t_cross > t_output .and. t_late >= t_output) then
@@ -102,9 +121,9 @@ contains
         exclusive = t_cross <= t_late
         t_v = min(t_cross, t_late)
         call restore_state()
-        call build_loop(self, t_hard, err)
-        if (err%failed()) return
+        self%events%ghost_changed_at = changed_at
         self%events%cross_mode = CROSS_RERUN
+        self%events%rerun_to = t_v
         call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err, &
                                    exclusive=exclusive)
         if (par%any(err%failed())) then
@@ -115,12 +134,13 @@ contains
           ! the cross phase: every event at t_v, those needing ghosts by the lower id's owner
           self%cross_count(3) = self%cross_count(3) + 1
           self%events%cross_mode = CROSS_PHASE
+          versions = self%events%version(1:self%bodies%n_owned)
           call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err)
           if (par%any(err%failed())) then
             if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank impact failed on another rank')
             return
           end if
-          call send_ghost_updates(self, par, owner, t_v, err)
+          call send_ghost_updates(self, par, owner, versions, t_v, err)
           if (err%failed()) return
         end if
         if (t_v <= self%time) then
@@ -142,14 +162,20 @@ contains
       self%step = self%step + par%sum(self%events%stats%impacts - events_before)
       self%collisions%stats%events = self%events%stats%impacts
       if (self%time < t_output) cycle
-      ! the outputs at t_output: owned bodies only, evaluated there
-      self%bodies%n_ghost = 0
+      ! the outputs at t_output (of owned bodies: the writers and sums skip the ghosts)
       self%last_dt = self%time - self%previous_stop
       self%previous_stop = self%time
       call evaluate_owned(self)
       call write_due_outputs(self, par, t_end, checkpointed, err)
       if (err%failed()) return
-      if (checkpointed) call anchor_owned(self)
+      if (checkpointed) then
+        ! built again from the state written, exactly as a restart from it builds it (and as
+        ! the one-rank loop is): every owned body anchored there, no ghosts until the next window
+        self%bodies%n_ghost = 0
+        call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
+                              self%deck%integrator, self%time, self%deck%run%dt_max, min(t_end, self%next_checkpoint), err)
+        if (err%failed()) return
+      end if
       call progress(self, par)
       call stop_if_requested(self, par, err)
       if (self%stop_code /= 0 .or. err%failed()) return
@@ -162,24 +188,27 @@ contains
       saved_bodies = self%bodies
       saved_flight = self%propagator
       n_log = self%collisions%n_log
-      ! (the log's rows are not copied: a repeated run overwrites those past n_log)
-      block
-        real(dp), allocatable :: rows(:, :)
-        if (allocated(self%collisions%log_rows)) call move_alloc(self%collisions%log_rows, rows)
-        saved_stage = self%collisions
-        if (allocated(rows)) call move_alloc(rows, self%collisions%log_rows)
-      end block
-      saved_stats = self%events%stats
+      ! Of the collision stage, what an elastic event changes and later events or the
+      ! summary read: counters and the sleeping state. Its gap memo is a cache (an entry
+      ! answers only the same poses, bit for bit), the rest scratch of each event, and the
+      ! event log's rows are only appended (a repeated run overwrites those past n_log).
+      saved_stage%stats = self%collisions%stats
+      saved_stage%impulses = self%collisions%impulses
+      saved_stage%impact_friction = self%collisions%impact_friction
+      saved_stage%residual_pgs = self%collisions%residual_pgs
+      saved_stage%sleep = self%collisions%sleep
+      saved_loop = self%events
     end subroutine save_state
     subroutine restore_state()
-      real(dp), allocatable :: rows(:, :)
       self%bodies = saved_bodies
       self%propagator = saved_flight
-      if (allocated(self%collisions%log_rows)) call move_alloc(self%collisions%log_rows, rows)
-      self%collisions = saved_stage
-      if (allocated(rows)) call move_alloc(rows, self%collisions%log_rows)
+      self%collisions%stats = saved_stage%stats
+      self%collisions%impulses = saved_stage%impulses
+      self%collisions%impact_friction = saved_stage%impact_friction
+      self%collisions%residual_pgs = saved_stage%residual_pgs
+      self%collisions%sleep = saved_stage%sleep
       self%collisions%n_log = n_log
-      self%events%stats = saved_stats
+      self%events = saved_loop
     end subroutine restore_state
   end procedure run_cross_windows
 
@@ -193,15 +222,6 @@ contains
     end do
   end subroutine evaluate_owned
 
-  !> Every owned moving body anchored afresh at self%time (after a checkpoint: as a restart
-  !> from it anchors them, and as the one-rank loop, built again there, does).
-  subroutine anchor_owned(self)
-    type(simulation_t), intent(inout) :: self
-    integer :: i
-    do i = 1, self%bodies%n_owned
-      if (.not. self%bodies%fixed(i)) call self%propagator%anchor_at(self%bodies, i, self%time)
-    end do
-  end subroutine anchor_owned
 
   !> A window's start at self%time: migration, ghosts (halo and fixed bodies), the loop.
   !> owner(row): the rank owning each row (ghosts: the rank that sent it; -1: a fixed body
@@ -213,14 +233,16 @@ contains
     integer, allocatable, intent(out) :: owner(:)
     logical, allocatable, intent(out) :: frontier(:)
     type(error_t), intent(inout) :: err
-    integer(i8), allocatable :: payload(:, :), sent(:, :), received(:, :), words(:, :), held(:, :)
-    integer, allocatable :: rows(:), order(:)
+    integer(i8), allocatable :: payload(:, :), sent(:, :), received(:, :), words(:, :), held(:, :), versions(:)
+    integer, allocatable :: rows(:), order(:), new_index(:)
     integer :: n_words, i, k, n_owned, n_halo, lo, hi, mid
-    logical :: found
-    self%bodies%n_ghost = 0
+    logical :: found, rebuilt
+    ! every owned body at self%time; the ghosts of the last window go (their pairs with them)
     call evaluate_owned(self)
     call self%propagator%pack_anchors(self%bodies%n_owned, payload)
-    call migrate_bodies(par, self%dom, self%bodies, err, stats=self%migration, payload=payload)
+    versions = self%events%version(1:self%bodies%n_owned)
+    call migrate_bodies(par, self%dom, self%bodies, err, versions=versions, new_index=new_index, &
+                        stats=self%migration, payload=payload)
     if (par%any(err%failed())) then
       if (err%ok()) call err%set(ERR_INTERNAL, 'migration failed on another rank')
       return
@@ -269,28 +291,33 @@ contains
     owner = -1
     owner(1:n_owned) = par%rank
     if (n_halo > 0) owner(n_owned + 1:n_owned + n_halo) = int(received(1, 1:n_halo))
-    call build_loop(self, t_hard, err)
-    if (err%failed()) return
     ! owned bodies a neighbour holds as ghosts: within halo_rings boxes of a side with one
     allocate (frontier(n_owned))
     do i = 1, n_owned
       frontier(i) = near_neighbour(self%dom, self%bodies%x(:, i), halo_rings)
     end do
+    self%zone = frontier
+    ! the loop follows: owned bodies keep their pairs and certificates, the ghosts (rows past
+    ! n_owned) arrive and only their pairs are made and certified (event_loop%remap_bodies)
+    versions = [versions(1:n_owned), [(0_i8, i=n_owned + 1, self%bodies%n_total())]]
+    call self%events%remap_bodies(self%collisions, self%bodies, self%shapes, self%propagator, new_index, versions, &
+                                  self%time, t_hard, err, rebuilt)
+    if (err%failed()) return
+    if (rebuilt) then
+      call err%set(ERR_INTERNAL, 'cross-rank window: the loop was built again at t = '//str(self%time)//' s')
+      return
+    end if
+    call self%events%start_cross_window(self%bodies)
+    call watch_halo(self)
   end subroutine start_window
 
-  !> The loop built over the rows held at self%time, every anchor kept, ghosts marked, and
-  !> the watch region of halo stops set (owned bodies within two boxes of the bricks of a
-  !> side with a neighbour: see cross_box_size).
-  subroutine build_loop(self, t_hard, err)
+  !> The loop's regions of halo stops and of complete impulse groups for this window (see
+  !> event_loop's in_zone and complete_lo; the bounds: cross_box_size).
+  subroutine watch_halo(self)
     type(simulation_t), intent(inout) :: self
-    real(dp), intent(in) :: t_hard
-    type(error_t), intent(inout) :: err
     type(box_range_t) :: mine
     real(dp) :: h, reach
     integer :: k
-    call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
-                          self%deck%integrator, self%time, self%deck%run%dt_max, t_hard, err, keep_anchors=.true.)
-    if (err%failed()) return
     mine = self%dom%brick(self%dom%rank)
     h = self%dom%h
     reach = halo_rings*h - 0.5_dp*self%collisions%box_size - 2.0_dp*r_max_moving(self) - &
@@ -300,16 +327,25 @@ contains
       self%events%watch_hi(k) = never
       self%events%complete_lo(k) = -never
       self%events%complete_hi(k) = never
+      self%events%brick_lo(k) = -never
+      self%events%brick_hi(k) = never
       if (self%dom%face_neighbour(2*k - 1) >= 0) then
         self%events%watch_lo(k) = real(mine%lo(k) + halo_rings, dp)*h
+        self%events%brick_lo(k) = real(mine%lo(k), dp)*h
         self%events%complete_lo(k) = real(mine%lo(k), dp)*h - reach
       end if
       if (self%dom%face_neighbour(2*k) >= 0) then
         self%events%watch_hi(k) = real(mine%hi(k) + 1 - halo_rings, dp)*h
+        self%events%brick_hi(k) = real(mine%hi(k) + 1, dp)*h
         self%events%complete_hi(k) = real(mine%hi(k) + 1, dp)*h + reach
       end if
     end do
-  end subroutine build_loop
+    if (allocated(self%events%in_zone)) deallocate (self%events%in_zone)
+    allocate (self%events%in_zone(self%bodies%n_total()))
+    self%events%in_zone = .false.
+    if (allocated(self%zone)) self%events%in_zone(1:min(size(self%zone), self%bodies%n_owned)) = &
+      self%zone(1:min(size(self%zone), self%bodies%n_owned))
+  end subroutine watch_halo
 
   !> The largest bounding radius of a moving body held (owned or ghost) [m].
   real(dp) function r_max_moving(self) result(r_max)
@@ -339,25 +375,99 @@ contains
     end do
   end function near_neighbour
 
-  !> The first trajectory change in this window of an owned body other ranks hold [s].
-  real(dp) function stale_time(self, frontier) result(t)
-    type(simulation_t), intent(in) :: self
+  !> Which ghosts their owners changed in this window, and when (changed_at(row): the first
+  !> change, never if none; owned and fixed rows never): every rank sends the owned bodies
+  !> other ranks hold (frontier) that changed to each neighbour (gid, first change: one
+  !> alltoallv) and looks the received gids up among its ghost rows. Collective.
+  subroutine exchange_changes(self, par, frontier, changed_at, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
     logical, intent(in) :: frontier(:)
-    integer :: i
-    t = never
+    real(dp), allocatable, intent(out) :: changed_at(:)
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: mine(:), send(:), recv(:)
+    integer(i8), allocatable :: keys(:, :)
+    integer, allocatable :: counts(:), neighbours(:), order(:)
+    integer :: i, k, n, n0, ng, lo, hi, mid
+    integer(i8) :: gid
+    allocate (changed_at(self%bodies%n_total()))
+    changed_at = never
+    n = 0
+    allocate (mine(2*self%bodies%n_owned))
     do i = 1, min(size(frontier), self%bodies%n_owned)
-      if (frontier(i) .and. .not. self%bodies%fixed(i)) t = min(t, self%events%first_change(i))
+      if (.not. frontier(i) .or. self%bodies%fixed(i)) cycle
+      if (self%events%first_change(i) >= never) cycle
+      mine(2*n + 1) = transfer(self%bodies%gid(i), 1.0_dp)
+      mine(2*n + 2) = self%events%first_change(i)
+      n = n + 1
     end do
-  end function stale_time
+    neighbours = self%dom%neighbours()
+    allocate (counts(0:par%n_ranks - 1), send(0))
+    counts = 0
+    do k = 1, size(neighbours)
+      counts(neighbours(k)) = 2*n
+    end do
+    do k = 0, par%n_ranks - 1
+      if (counts(k) > 0) send = [send, mine(1:2*n)]
+    end do
+    call par%alltoallv(send, counts, recv, err)
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'exchanging changed bodies failed on another rank')
+      return
+    end if
+    ! the ghost rows by gid (halo ghosts first, fixed ones after: sorted here)
+    n0 = self%bodies%n_owned
+    ng = self%bodies%n_ghost
+    if (ng == 0) return
+    allocate (keys(1, ng))
+    keys(1, :) = self%bodies%gid(n0 + 1:n0 + ng)
+    call sort_index_keys(keys, order)
+    do k = 1, size(recv)/2
+      gid = transfer(recv(2*k - 1), 1_i8)
+      lo = 1
+      hi = ng
+      do while (lo <= hi)
+        mid = (lo + hi)/2
+        if (keys(1, order(mid)) == gid) then
+          changed_at(n0 + order(mid)) = min(changed_at(n0 + order(mid)), recv(2*k))
+          exit
+        else if (keys(1, order(mid)) < gid) then
+          lo = mid + 1
+        else
+          hi = mid - 1
+        end if
+      end do
+    end do
+  end subroutine exchange_changes
+
+  !> The first time from which a pair of bodies of two ranks may both follow trajectories
+  !> the other rank has not seen [s]: each rank certifies its pairs with ghosts against the
+  !> ghost's trajectory of the window's start, right while the ghost keeps it (a contact
+  !> is then found by the rank whose body changed); a pair whose two bodies both changed (at
+  !> t_a here, t_b on the ghost's owner) is seen by nobody from max(t_a, t_b) on. Over the
+  !> pairs made with a moving ghost this window.
+  real(dp) function both_changed_time(self, changed_at) result(t)
+    type(simulation_t), intent(in) :: self
+    real(dp), intent(in) :: changed_at(:)
+    integer :: k, o, g
+    t = never
+    do k = 1, self%events%n_cross_pairs
+      o = self%events%cross_pairs(1, k)
+      g = self%events%cross_pairs(2, k)
+      if (self%events%first_change(o) >= never .or. changed_at(g) >= never) cycle
+      t = min(t, max(self%events%first_change(o), changed_at(g)))
+    end do
+  end function both_changed_time
 
   !> After a cross phase at t: every ghost whose trajectory this rank changed goes to its
   !> owner (row and flight record, one alltoallv), who takes both bit for bit. A body
   !> changed at t by two ranks (its owner, or two others) would need their groups solved
   !> together: an error naming it (not built yet; no validation scene has one).
-  subroutine send_ghost_updates(self, par, owner, t, err)
+  subroutine send_ghost_updates(self, par, owner, versions, t, err)
     type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     integer, intent(in) :: owner(:)
+    integer(i8), intent(in) :: versions(:)     !< the owned rows' versions before the phase
     real(dp), intent(in) :: t
     type(error_t), intent(inout) :: err
     integer(i8), allocatable :: words(:, :), got(:, :)
@@ -411,7 +521,7 @@ contains
                        ' is not owned by the rank its new trajectory was sent to')
           exit
         end if
-        if (updated(row) .or. self%events%first_change(row) <= t) then
+        if (updated(row) .or. self%events%version(row) /= versions(row)) then
           call err%set(ERR_INTERNAL, 'cross-rank impacts at t = '//str(t)//' s: body '//str(arrived%gid(k))// &
                        ' was changed by two ranks at once (impulse groups spanning ranks at one time are '// &
                        'not built yet)')
@@ -424,6 +534,8 @@ contains
       if (err%failed()) exit
       o = o + n_words
     end do
+    if (err%ok()) call self%events%take_trajectories(self%collisions, self%bodies, self%shapes, self%propagator, &
+                                                     pack([(i, i=1, self%bodies%n_owned)], updated), t, err)
     if (par%any(err%failed())) then
       if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank impact failed on another rank')
     end if
