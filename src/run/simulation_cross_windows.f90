@@ -165,7 +165,9 @@ contains
       ! the outputs at t_output (of owned bodies: the writers and sums skip the ghosts)
       self%last_dt = self%time - self%previous_stop
       self%previous_stop = self%time
+      clock = par%wtime()
       call evaluate_owned(self)
+      self%integration_wall = self%integration_wall + (par%wtime() - clock)
       call write_due_outputs(self, par, t_end, checkpointed, err)
       if (err%failed()) return
       if (checkpointed) then

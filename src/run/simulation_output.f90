@@ -146,7 +146,7 @@ contains
     real(dp) :: wall, per_step, min_sep, load(3, 3), startup, window_wall, window_loop_wall
     integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages, window_certificates, window_rebuilds
     integer(i8) :: convex_bounds, cross_count(4)
-    real(dp) :: cross_wall(2)
+    real(dp) :: cross_wall(2), rate
     wall = par%wtime() - self%wall_start
     ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
     ! time (everything but waiting in collectives is not split out yet: the run's wall time).
@@ -183,8 +183,11 @@ contains
       'owners, first outputs, the event loop''s set-up)'
     write (*, '(a,es10.3,a,es10.3,a)') '  time per step        ', per_step, ' s (', &
       per_step/max(real(self%n_total, dp), 1.0_dp), ' s per body)'
-    write (*, '(a,es10.3,a,es10.3,a)') '  integration time     ', self%integration_wall, ' s (', &
-      real(self%n_total, dp)*real(self%step - self%first_step, dp)/max(self%integration_wall, tiny(1.0_dp)), &
+    ! (no time measured, no rate: 0)
+    rate = 0.0_dp
+    if (self%integration_wall > 1.0e-9_dp) &
+      rate = real(self%n_total, dp)*real(self%step - self%first_step, dp)/self%integration_wall
+    write (*, '(a,es10.3,a,es10.3,a)') '  integration time     ', self%integration_wall, ' s (', rate, &
       ' body updates per s)'
     if (self%local) then
       associate (ev => self%events%stats)
