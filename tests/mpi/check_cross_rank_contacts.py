@@ -12,6 +12,8 @@ counters):
   a third pair meeting off-centre; 2 ranks. The impact is a cross-rank impact (summary).
 - edge: two spheres meeting at the edge of a 2 x 2 x 1 decomposition (from the two
   bricks that share only that edge); 4 ranks.
+- corner: the same at the corner of a 2 x 2 x 2 decomposition; 8 ranks (oversubscribed,
+  a scene of four bodies).
 - gas: 200 spheres in a closed box, random start, e = 1; 2, 3 and 4 ranks; bodies change
   rank and cross-rank impacts happen. A restart written on 4 ranks at t = 0.5 s goes on
   on 2 ranks, and one written on 1 rank goes on on 4, as the uninterrupted run.
@@ -124,6 +126,17 @@ edge = deck("edge.nml", "&run title = 'edge', t_end = 1.0, dt_max = 0.01 /\n&con
             f"&body name = 'corner_b', {SPHERE}, position = 1.5, 1.5, 0.0 /\n"
             "&parallel dims = 2, 2, 1 /\n")
 compare("edge", edge, (4,))
+
+# Corner: bricks 2 x 2 x 2 (8 ranks, oversubscribed: a small scene), the two spheres come
+# from the bricks (-, -, -) and (+, +, +), which share only a corner.
+corner = deck("corner.nml", "&run title = 'corner', t_end = 1.0, dt_max = 0.01 /\n&contact restitution = 1.0 /\n" +
+              OUTPUT +
+              f"&body name = 'minus', {SPHERE}, position = -0.4, -0.4, -0.4, velocity = 1.0, 1.0, 1.0 /\n"
+              f"&body name = 'plus', {SPHERE}, position = 0.4, 0.41, 0.39, velocity = -1.0, -1.0, -1.0 /\n"
+              f"&body name = 'corner_a', {SPHERE}, position = -1.5, -1.5, -1.5 /\n"
+              f"&body name = 'corner_b', {SPHERE}, position = 1.5, 1.5, 1.5 /\n"
+              "&parallel dims = 2, 2, 2 /\n")
+compare("corner", corner, (8,))
 
 # Gas: 200 spheres at 5% in a closed box (tests/regression/check_local_events.py's gas).
 rng = np.random.default_rng(7)
