@@ -789,6 +789,17 @@ contains
   subroutine loop_start_cross_window(self, bodies)
     class(event_loop_t), intent(inout) :: self
     type(bodies_t), intent(in) :: bodies
+    integer :: g, slot
+    ! the pairs with a moving ghost, kept through the remap or made by it
+    self%n_cross_pairs = 0
+    do g = bodies%n_owned + 1, bodies%n_owned + bodies%n_ghost
+      if (bodies%fixed(g)) cycle
+      slot = self%pairs%head(g)
+      do while (slot > 0)
+        call note_cross_pair(self, bodies, self%pairs%partner(slot, g), g)
+        slot = self%pairs%next_of(slot, g)
+      end do
+    end do
     if (allocated(self%first_change)) deallocate (self%first_change)
     allocate (self%first_change(bodies%n_owned + bodies%n_ghost))
     self%first_change = far_future

@@ -110,6 +110,8 @@ module simulation
     logical :: cross_windows = .false.
     type(bodies_t) :: statics                 !< every fixed body of the scene (ghosts on every rank)
     logical, allocatable :: zone(:)           !< per owned row: other ranks hold it as a ghost
+    !> per ghost row: its owner's trajectory version when it came (-1: a fixed body)
+    integer(i8), allocatable :: ghost_versions(:)
     integer(i8) :: cross_count(4) = 0         !< windows, repeated (rolled back), cross phases, ghost updates sent
     real(dp) :: cross_wall(2) = 0.0_dp        !< wall in window starts (migration, halo, loop built), in repeated runs [s]
     logical :: restarted = .false.

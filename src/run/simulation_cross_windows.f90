@@ -174,6 +174,7 @@ contains
         ! built again from the state written, exactly as a restart from it builds it (and as
         ! the one-rank loop is): every owned body anchored there, no ghosts until the next window
         self%bodies%n_ghost = 0
+        if (allocated(self%ghost_versions)) deallocate (self%ghost_versions)
         call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
                               self%deck%integrator, self%time, self%deck%run%dt_max, min(t_end, self%next_checkpoint), err)
         if (err%failed()) return
@@ -236,10 +237,25 @@ contains
     logical, allocatable, intent(out) :: frontier(:)
     type(error_t), intent(inout) :: err
     integer(i8), allocatable :: payload(:, :), sent(:, :), received(:, :), words(:, :), held(:, :), versions(:)
-    integer, allocatable :: rows(:), order(:), new_index(:)
-    integer :: n_words, i, k, n_owned, n_halo, lo, hi, mid
+    integer(i8), allocatable :: old_keys(:, :), old_local(:), old_owner(:), ghost_versions(:)
+    integer, allocatable :: rows(:), order(:), new_index(:), old_order(:)
+    integer :: n_words, i, k, n_owned, n_halo, lo, hi, mid, n_old_owned, n_old_ghosts, r
     logical :: found, rebuilt
-    ! every owned body at self%time; the ghosts of the last window go (their pairs with them)
+    ! the last window's ghosts: a ghost that comes again with its owner's same version (the
+    ! same trajectory) keeps its row's pairs and certificates, as does a fixed body; the
+    ! others go with their pairs
+    n_old_owned = self%bodies%n_owned
+    n_old_ghosts = self%bodies%n_ghost
+    if (.not. allocated(self%ghost_versions)) allocate (self%ghost_versions(0))
+    if (size(self%ghost_versions) /= n_old_ghosts) n_old_ghosts = 0
+    allocate (old_keys(1, n_old_ghosts), old_local(n_old_ghosts), old_owner(n_old_ghosts))
+    if (n_old_ghosts > 0) then
+      old_keys(1, :) = self%bodies%gid(n_old_owned + 1:n_old_owned + n_old_ghosts)
+      old_local = self%events%version(n_old_owned + 1:n_old_owned + n_old_ghosts)
+      old_owner = self%ghost_versions
+    end if
+    call sort_index_keys(old_keys, old_order)
+    ! every owned body at self%time
     call evaluate_owned(self)
     call self%propagator%pack_anchors(self%bodies%n_owned, payload)
     versions = self%events%version(1:self%bodies%n_owned)
@@ -254,7 +270,8 @@ contains
     allocate (sent(1 + n_words, n_owned))
     sent(1, :) = par%rank
     sent(2:, :) = payload(:, 1:n_owned)
-    call exchange_halo(par, self%dom, self%bodies, halo_rings, err, payload=sent, ghost_payload=received)
+    call exchange_halo(par, self%dom, self%bodies, halo_rings, err, versions=versions, ghost_versions=ghost_versions, &
+                       payload=sent, ghost_payload=received)
     if (par%any(err%failed())) then
       if (err%ok()) call err%set(ERR_INTERNAL, 'halo exchange failed on another rank')
       return
@@ -302,6 +319,27 @@ contains
     ! the loop follows: owned bodies keep their pairs and certificates, the ghosts (rows past
     ! n_owned) arrive and only their pairs are made and certified (event_loop%remap_bodies)
     versions = [versions(1:n_owned), [(0_i8, i=n_owned + 1, self%bodies%n_total())]]
+    ghost_versions = [ghost_versions(1:n_halo), [(-1_i8, i=n_halo + 1, self%bodies%n_ghost)]]
+    do r = n_owned + 1, self%bodies%n_total()
+      lo = 1
+      hi = n_old_ghosts
+      do while (lo <= hi)
+        mid = (lo + hi)/2
+        k = old_order(mid)
+        if (old_keys(1, k) == self%bodies%gid(r)) then
+          if (old_owner(k) == ghost_versions(r - n_owned)) then
+            new_index(n_old_owned + k) = r
+            versions(r) = old_local(k)
+          end if
+          exit
+        else if (old_keys(1, k) < self%bodies%gid(r)) then
+          lo = mid + 1
+        else
+          hi = mid - 1
+        end if
+      end do
+    end do
+    call move_alloc(ghost_versions, self%ghost_versions)
     call self%events%remap_bodies(self%collisions, self%bodies, self%shapes, self%propagator, new_index, versions, &
                                   self%time, t_hard, err, rebuilt)
     if (err%failed()) return
