@@ -145,21 +145,26 @@ module event_loop
     !> the next window, whose ghosts are fresh [s]
     real(dp), allocatable :: ghost_changed_at(:)
     integer(i8) :: deferred = 0                  !< cross-phase impacts left to the next window
-    !> A box crossing of an owned body is a STOP_HALO (the ghosts the rank holds may no longer
-    !> cover what can reach it, or a neighbour may no longer hold a body that can reach its
-    !> own) where: a body other ranks hold as a ghost (in_zone) is outside [brick_lo,
-    !> brick_hi], its owner's brick; any other is outside [watch_lo, watch_hi], the brick
-    !> without the zone the halo exchange sends [m]
+    !> ghost rows whose pair a cross phase dropped (the caller makes them come again afresh)
+    integer, allocatable :: dropped_rows(:)
+    integer :: n_dropped_rows = 0
+    !> Placing an owned body in the grid (a box crossing, or an event that moved its region)
+    !> is a STOP_HALO (the ghosts the rank holds may no longer cover what can reach it, or a
+    !> neighbour may not hold it while it can reach the neighbour's bodies) where it is
+    !> within two boxes of a side with a neighbour (outside [watch_lo, watch_hi]) that it was
+    !> not within at the window's start (zone_sides: bit 2k-2 the lower side of axis k, bit
+    !> 2k-1 the upper: the sides the halo exchange sent it to), or, sent to some, outside its
+    !> own brick [brick_lo, brick_hi] [m]
     real(dp) :: watch_lo(3) = -far_future, watch_hi(3) = far_future
     real(dp) :: brick_lo(3) = -far_future, brick_hi(3) = far_future
-    logical, allocatable :: in_zone(:)
-    !> (owned row, ghost row) of every pair made with a moving ghost since init
-    integer, allocatable :: cross_pairs(:, :)
-    integer :: n_cross_pairs = 0
+    integer, allocatable :: zone_sides(:)
     !> a ghost in an impulse group of the cross phase must lie in [complete_lo, complete_hi]:
     !> every body within the band of it is then held here [m]
     real(dp) :: complete_lo(3) = -far_future, complete_hi(3) = far_future
     real(dp), allocatable :: first_change(:)     !< per body: first trajectory change since init [s]
+    !> per owned row, in a cross-rank window: the box its centre of mass swept from its first
+    !> change on (to the last change; path_close adds the rest) [m]
+    real(dp), allocatable :: path_lo(:, :), path_hi(:, :)
   contains
     procedure :: init => loop_init
     procedure :: remap_bodies => loop_remap_bodies
@@ -169,6 +174,7 @@ module event_loop
     procedure :: bodies_unchanged => loop_bodies_unchanged
     procedure :: take_trajectories => loop_take_trajectories
     procedure :: start_cross_window => loop_start_cross_window
+    procedure :: close_paths => loop_close_paths
   end type event_loop_t
 
 contains
@@ -242,7 +248,6 @@ contains
     self%n_owned = bodies%n_owned
     self%stop_kind = STOP_NONE
     self%stop_time = far_future
-    self%n_cross_pairs = 0
     self%n_stop_rows = 0
     if (allocated(self%ghost_changed_at)) deallocate (self%ghost_changed_at)
     if (allocated(self%first_change)) deallocate (self%first_change)
@@ -274,7 +279,6 @@ contains
         if (.not. held_pair(self, bodies, i, self%found(j))) cycle
         if (self%pairs%find(i, self%found(j)) > 0) cycle
         slot = self%pairs%add(i, self%found(j), bodies%gid(i), bodies%gid(self%found(j)))
-        call note_cross_pair(self, bodies, i, self%found(j))
       end do
     end do
     call ensure_pair_marks(self)
@@ -339,7 +343,6 @@ contains
     logical :: kept
     n = bodies%n_owned + bodies%n_ghost
     self%n_owned = bodies%n_owned
-    self%n_cross_pairs = 0
     rebuilt = .false.
     call self%islands%remap_bodies(new_index, kept)
     if (.not. kept) then
@@ -438,7 +441,6 @@ contains
         if (.not. held_pair(self, bodies, ni, j)) cycle
         if (self%pairs%find(ni, j) > 0) cycle
         slot = self%pairs%add(ni, j, bodies%gid(ni), bodies%gid(j))
-        call note_cross_pair(self, bodies, ni, j)
         call push(new_slots, n_new_slots, slot)
       end do
     end do
@@ -551,15 +553,6 @@ contains
         else
           call self%body_queue%pop(handle, t)
           self%time = max(self%time, t)
-          if (self%cross_mode == CROSS_SPECULATE .and. handle <= self%n_owned) then
-            ! an owned body near a neighbouring brick has used up its margin: the halo
-            ! the ghosts came from no longer covers what may reach it (the caller's window)
-            call sync(self, bodies, flight, handle, t)
-            if (halo_left(self, bodies, handle)) then
-              self%stop_kind = STOP_HALO
-              self%stop_time = t
-            end if
-          end if
           call crossing_event(self, stage, bodies, shapes, flight, handle, t, err)
           self%stats%wall_detection = self%stats%wall_detection + elapsed(clock, clock_rate)
         end if
@@ -613,10 +606,11 @@ contains
       lower = a
       if (bodies%gid(b) < bodies%gid(a)) lower = b
       if (lower > self%n_owned) then
-        ! (the owner of the lower id takes it: dropped here, and not certified again, since
-        ! the caller builds the loop again after the phase)
+        ! (the owner of the lower id takes it: dropped here with its pair, which the next
+        ! window's start makes again with the ghost)
         call self%pair_queue%remove(slot)
         call self%pairs%remove(slot)
+        call push(self%dropped_rows, self%n_dropped_rows, lower)
         what = CROSS_DROPPED
       end if
     end select
@@ -633,49 +627,25 @@ contains
   end function held_pair
 
   !> Whether owned body i (at its present position) has left what the halo exchange at the
-  !> window's start covers (see in_zone).
+  !> window's start covers (see zone_sides).
   logical function halo_left(self, bodies, i)
     type(event_loop_t), intent(in) :: self
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: i
-    logical :: zone
-    zone = .false.
-    if (allocated(self%in_zone)) then
-      if (i <= size(self%in_zone)) zone = self%in_zone(i)
+    integer :: sides, now, k
+    sides = 0
+    if (allocated(self%zone_sides)) then
+      if (i <= size(self%zone_sides)) sides = self%zone_sides(i)
     end if
-    if (zone) then
-      halo_left = any(bodies%x(:, i) < self%brick_lo) .or. any(bodies%x(:, i) > self%brick_hi)
-    else
-      halo_left = any(bodies%x(:, i) < self%watch_lo) .or. any(bodies%x(:, i) > self%watch_hi)
-    end if
+    now = 0
+    do k = 1, 3
+      if (bodies%x(k, i) < self%watch_lo(k)) now = ibset(now, 2*k - 2)
+      if (bodies%x(k, i) > self%watch_hi(k)) now = ibset(now, 2*k - 1)
+    end do
+    halo_left = iand(now, not(sides)) /= 0
+    if (sides /= 0) halo_left = halo_left .or. any(bodies%x(:, i) < self%brick_lo) .or. &
+                                any(bodies%x(:, i) > self%brick_hi)
   end function halo_left
-
-  !> A pair of rows i and j was made: noted if it is one of an owned body and a moving ghost.
-  subroutine note_cross_pair(self, bodies, i, j)
-    type(event_loop_t), intent(inout) :: self
-    type(bodies_t), intent(in) :: bodies
-    integer, intent(in) :: i, j
-    integer, allocatable :: grown(:, :)
-    integer :: o, g
-    if (self%n_owned >= bodies%n_owned + bodies%n_ghost) return
-    if (is_moving_ghost(self, bodies, i) .and. j <= self%n_owned) then
-      o = j
-      g = i
-    else if (is_moving_ghost(self, bodies, j) .and. i <= self%n_owned) then
-      o = i
-      g = j
-    else
-      return
-    end if
-    if (.not. allocated(self%cross_pairs)) allocate (self%cross_pairs(2, 64))
-    if (self%n_cross_pairs == size(self%cross_pairs, 2)) then
-      allocate (grown(2, 2*size(self%cross_pairs, 2)))
-      grown(:, 1:self%n_cross_pairs) = self%cross_pairs(:, 1:self%n_cross_pairs)
-      call move_alloc(grown, self%cross_pairs)
-    end if
-    self%n_cross_pairs = self%n_cross_pairs + 1
-    self%cross_pairs(:, self%n_cross_pairs) = [o, g]
-  end subroutine note_cross_pair
 
   !> The run stops at t for the impact of rows a and b, which needs the moving ghosts among
   !> rows(:) (STOP_CROSS).
@@ -785,27 +755,20 @@ contains
   end subroutine loop_take_trajectories
 
   !> A cross-rank window starts (after remap_bodies brought the ghosts in): nothing has
-  !> changed in it yet, no stop; the pairs with ghosts were noted as remap made them.
+  !> changed in it yet, no stop, no swept path.
   subroutine loop_start_cross_window(self, bodies)
     class(event_loop_t), intent(inout) :: self
     type(bodies_t), intent(in) :: bodies
-    integer :: g, slot
-    ! the pairs with a moving ghost, kept through the remap or made by it
-    self%n_cross_pairs = 0
-    do g = bodies%n_owned + 1, bodies%n_owned + bodies%n_ghost
-      if (bodies%fixed(g)) cycle
-      slot = self%pairs%head(g)
-      do while (slot > 0)
-        call note_cross_pair(self, bodies, self%pairs%partner(slot, g), g)
-        slot = self%pairs%next_of(slot, g)
-      end do
-    end do
     if (allocated(self%first_change)) deallocate (self%first_change)
     allocate (self%first_change(bodies%n_owned + bodies%n_ghost))
     self%first_change = far_future
+    if (allocated(self%path_lo)) deallocate (self%path_lo, self%path_hi)
+    allocate (self%path_lo(3, bodies%n_owned), self%path_hi(3, bodies%n_owned))
     self%stop_kind = STOP_NONE
     self%stop_time = far_future
     self%n_stop_rows = 0
+    self%n_dropped_rows = 0
+    if (.not. allocated(self%dropped_rows)) allocate (self%dropped_rows(8))
     if (allocated(self%ghost_changed_at)) deallocate (self%ghost_changed_at)
   end subroutine loop_start_cross_window
 
@@ -847,12 +810,67 @@ contains
     self%state_time(i) = t
     self%version(i) = self%version(i) + 1
     self%changes(i) = self%changes(i) + 1
+    if (allocated(self%path_lo) .and. .not. bodies%fixed(i)) then
+      if (i <= size(self%path_lo, 2)) then
+        if (self%first_change(i) >= far_future) then
+          self%path_lo(:, i) = bodies%x(:, i)
+          self%path_hi(:, i) = bodies%x(:, i)
+        else
+          call sweep_segment(self, flight, i, t, self%path_lo(:, i), self%path_hi(:, i))
+        end if
+      end if
+    end if
     if (allocated(self%first_change)) then
       if (i <= size(self%first_change)) self%first_change(i) = min(self%first_change(i), t)
     end if
     self%stats%trajectory_changes = self%stats%trajectory_changes + 1
     if (.not. bodies%fixed(i)) call flight%anchor_at(bodies, i, t)
   end subroutine new_trajectory
+
+  !> lo, hi grown by the box of body i's centre over [its anchor time, t] on its present
+  !> flight (a parabola: its ends and, per axis, its turning point) [m].
+  subroutine sweep_segment(self, flight, i, t, lo, hi)
+    type(event_loop_t), intent(in) :: self
+    type(free_flight_t), intent(in) :: flight
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t
+    real(dp), intent(inout) :: lo(3), hi(3)
+    real(dp) :: a(3), tau, s, x
+    integer :: k
+    a = flight%acceleration(i, self%gravity)
+    tau = max(t - flight%t0(i), 0.0_dp)
+    do k = 1, 3
+      x = flight%x0(k, i) + flight%v0(k, i)*tau + 0.5_dp*a(k)*tau*tau
+      lo(k) = min(lo(k), flight%x0(k, i), x)
+      hi(k) = max(hi(k), flight%x0(k, i), x)
+      if (a(k) /= 0.0_dp) then
+        s = -flight%v0(k, i)/a(k)
+        if (s > 0.0_dp .and. s < tau) then
+          x = flight%x0(k, i) + flight%v0(k, i)*s + 0.5_dp*a(k)*s*s
+          lo(k) = min(lo(k), x)
+          hi(k) = max(hi(k), x)
+        end if
+      end if
+    end do
+    ! (round-off of the evaluation: a relative 1e-12 and an absolute 1e-12 m)
+    lo = lo - 1.0e-12_dp*(1.0_dp + abs(lo))
+    hi = hi + 1.0e-12_dp*(1.0_dp + abs(hi))
+  end subroutine sweep_segment
+
+  !> The swept boxes (path_lo, path_hi) of the owned rows that changed, closed at t (the end
+  !> of the run): their last segment added.
+  subroutine loop_close_paths(self, bodies, flight, t)
+    class(event_loop_t), intent(inout) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(free_flight_t), intent(in) :: flight
+    real(dp), intent(in) :: t
+    integer :: i
+    if (.not. allocated(self%path_lo)) return
+    do i = 1, min(self%n_owned, size(self%path_lo, 2))
+      if (bodies%fixed(i) .or. self%first_change(i) >= far_future) cycle
+      call sweep_segment(self, flight, i, t, self%path_lo(:, i), self%path_hi(:, i))
+    end do
+  end subroutine loop_close_paths
 
   !> Body i enters the grid with its bounding sphere's box, grown by the margin (moving
   !> bodies) and half the band, around where it is now.
@@ -868,6 +886,15 @@ contains
     self%region_x(:, i) = bodies%x(:, i)
     call self%cells%place(i, bodies%x(:, i) - grow, bodies%x(:, i) + grow, err)
     if (err%failed()) call err%prefix('body '//str(bodies%gid(i))//': ')
+    ! (every placement, not only box crossings: an impact that moves a body's region is one
+    ! too, and a body hit every quarter box would otherwise never be looked at)
+    if (self%cross_mode == CROSS_SPECULATE .and. i <= self%n_owned .and. .not. bodies%fixed(i) .and. &
+        self%stop_kind == STOP_NONE) then
+      if (halo_left(self, bodies, i)) then
+        self%stop_kind = STOP_HALO
+        self%stop_time = self%time
+      end if
+    end if
   end subroutine place
 
   !> When body i (at t) will have used up its margin on its present trajectory.
@@ -944,7 +971,6 @@ contains
       if (.not. held_pair(self, bodies, i, j)) cycle
       if (self%pairs%find(i, j) > 0) cycle
       slot = self%pairs%add(i, j, bodies%gid(i), bodies%gid(j))
-      call note_cross_pair(self, bodies, i, j)
       call ensure_pair_marks(self)
       call certify(self, stage, bodies, shapes, flight, slot, t, err)
       if (err%failed()) return
@@ -1432,7 +1458,13 @@ contains
       ! a ghost its owner changed by now: this rank's copy is stale; the next window's is not
       if (any([(is_moving_ghost(self, bodies, group(k)), k=1, n_group)])) then
         if (any([(self%ghost_changed_at(group(k)) <= t, k=1, n_group)])) then
+          ! left to the next window: the pair queued again at t and the phase ends here
+          ! (its other events at t too: the next window takes them with fresh ghosts)
           self%deferred = self%deferred + 1
+          self%stats%impacts = self%stats%impacts - 1
+          call set_action(self, bodies, slot, ACTION_IMPACT, t)
+          self%stop_kind = STOP_CROSS
+          self%stop_time = t
           return
         end if
       end if

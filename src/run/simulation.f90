@@ -109,7 +109,10 @@ module simulation
     !> lower global id, the new anchors of ghosts sent to their owners.
     logical :: cross_windows = .false.
     type(bodies_t) :: statics                 !< every fixed body of the scene (ghosts on every rank)
-    logical, allocatable :: zone(:)           !< per owned row: other ranks hold it as a ghost
+    !> per owned row: the sides of its brick (bits as event_loop's zone_sides) within two boxes
+    !> of which it was at the window's start: the neighbours there hold it as a ghost
+    integer, allocatable :: zone(:)
+    real(dp) :: cross_r_max = 0.0_dp          !< largest bounding radius of a moving body of the scene [m]
     !> per ghost row: its owner's trajectory version when it came (-1: a fixed body)
     integer(i8), allocatable :: ghost_versions(:)
     integer(i8) :: cross_count(4) = 0         !< windows, repeated (rolled back), cross phases, ghost updates sent
@@ -154,7 +157,7 @@ module simulation
     !> collision grid box (docs/architecture.md): R_max + band/2 + h/2, R_max the largest
     !> bounding radius of a moving body, h the collision grid's box, and at least h.
     module real(dp) function cross_box_size(self, everyone) result(box)
-      type(simulation_t), intent(in) :: self
+      type(simulation_t), intent(inout) :: self   !< (keeps R_max: cross_r_max)
       type(bodies_t), intent(in) :: everyone
     end function cross_box_size
     !> The bodies of all whose centre lies in this rank's brick, in global-id order.

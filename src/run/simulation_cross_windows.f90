@@ -55,6 +55,7 @@ contains
     end do
     band = self%collisions%target + self%collisions%tolerance + self%collisions%contact_tolerance
     h = self%collisions%box_size
+    self%cross_r_max = r_max
     ! (a relative 1e-6 for the round-off of box edges)
     box = max(h, (2.0_dp*r_max + band + h)*(1.0_dp + 1.0e-6_dp))
   end procedure cross_box_size
@@ -69,8 +70,8 @@ contains
     logical, allocatable :: frontier(:)
     real(dp), allocatable :: changed_at(:)
     integer(i8), allocatable :: versions(:)
-    real(dp) :: t_stale
-    integer :: n_log, stuck
+    real(dp) :: t_stale, t_both
+    integer :: n_log, stuck, i, k
     integer(i8) :: events_before
     logical :: checkpointed, exclusive
     t_end = self%deck%run%t_end
@@ -98,9 +99,10 @@ contains
       t_late = never
       if (self%events%stop_kind == STOP_CROSS) t_cross = self%events%stop_time
       if (self%events%stop_kind == STOP_HALO) t_late = self%events%stop_time
-      call exchange_changes(self, par, frontier, changed_at, err)
+      call self%events%close_paths(self%bodies, self%propagator, min(t_output, self%events%stop_time))
+      call exchange_changes(self, par, frontier, changed_at, t_both, err)
       if (err%failed()) return
-      t_late = min(t_late, both_changed_time(self, changed_at))
+      t_late = min(t_late, t_both)
       if (t_cross < never .and. self%events%n_stop_rows > 0) then
         ! a cross-rank impact with a ghost its owner had changed by then is none: this rank's
         ! copy is stale from that change on (the next window's ghosts are fresh)
@@ -140,6 +142,10 @@ contains
             if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank impact failed on another rank')
             return
           end if
+          do i = 1, self%events%n_dropped_rows
+            k = self%events%dropped_rows(i) - self%bodies%n_owned
+            if (k >= 1 .and. k <= size(self%ghost_versions)) self%ghost_versions(k) = -2_i8
+          end do
           call send_ghost_updates(self, par, owner, versions, t_v, err)
           if (err%failed()) return
         end if
@@ -177,7 +183,10 @@ contains
         if (allocated(self%ghost_versions)) deallocate (self%ghost_versions)
         call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
                               self%deck%integrator, self%time, self%deck%run%dt_max, min(t_end, self%next_checkpoint), err)
-        if (err%failed()) return
+        if (par%any(err%failed())) then
+          if (err%ok()) call err%set(ERR_INTERNAL, 'building the loop after a checkpoint failed on another rank')
+          return
+        end if
       end if
       call progress(self, par)
       call stop_if_requested(self, par, err)
@@ -312,10 +321,12 @@ contains
     if (n_halo > 0) owner(n_owned + 1:n_owned + n_halo) = int(received(1, 1:n_halo))
     ! owned bodies a neighbour holds as ghosts: within halo_rings boxes of a side with one
     allocate (frontier(n_owned))
+    if (allocated(self%zone)) deallocate (self%zone)
+    allocate (self%zone(n_owned))
     do i = 1, n_owned
-      frontier(i) = near_neighbour(self%dom, self%bodies%x(:, i), halo_rings)
+      self%zone(i) = near_sides(self%dom, self%bodies%x(:, i), halo_rings)
+      frontier(i) = self%zone(i) /= 0
     end do
-    self%zone = frontier
     ! the loop follows: owned bodies keep their pairs and certificates, the ghosts (rows past
     ! n_owned) arrive and only their pairs are made and certified (event_loop%remap_bodies)
     versions = [versions(1:n_owned), [(0_i8, i=n_owned + 1, self%bodies%n_total())]]
@@ -342,9 +353,10 @@ contains
     call move_alloc(ghost_versions, self%ghost_versions)
     call self%events%remap_bodies(self%collisions, self%bodies, self%shapes, self%propagator, new_index, versions, &
                                   self%time, t_hard, err, rebuilt)
-    if (err%failed()) return
-    if (rebuilt) then
-      call err%set(ERR_INTERNAL, 'cross-rank window: the loop was built again at t = '//str(self%time)//' s')
+    if (err%ok() .and. rebuilt) call err%set(ERR_INTERNAL, 'cross-rank window: the loop was built again at t = '// &
+                                             str(self%time)//' s')
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank window''s start failed on another rank')
       return
     end if
     call self%events%start_cross_window(self%bodies)
@@ -360,7 +372,7 @@ contains
     integer :: k
     mine = self%dom%brick(self%dom%rank)
     h = self%dom%h
-    reach = halo_rings*h - 0.5_dp*self%collisions%box_size - 2.0_dp*r_max_moving(self) - &
+    reach = halo_rings*h - 0.5_dp*self%collisions%box_size - 2.0_dp*self%cross_r_max - &
             (self%collisions%target + self%collisions%tolerance + self%collisions%contact_tolerance)
     do k = 1, 3
       self%events%watch_lo(k) = -never
@@ -380,26 +392,18 @@ contains
         self%events%complete_hi(k) = real(mine%hi(k) + 1, dp)*h + reach
       end if
     end do
-    if (allocated(self%events%in_zone)) deallocate (self%events%in_zone)
-    allocate (self%events%in_zone(self%bodies%n_total()))
-    self%events%in_zone = .false.
-    if (allocated(self%zone)) self%events%in_zone(1:min(size(self%zone), self%bodies%n_owned)) = &
+    if (allocated(self%events%zone_sides)) deallocate (self%events%zone_sides)
+    allocate (self%events%zone_sides(self%bodies%n_total()))
+    self%events%zone_sides = 0
+    if (allocated(self%zone)) self%events%zone_sides(1:min(size(self%zone), self%bodies%n_owned)) = &
       self%zone(1:min(size(self%zone), self%bodies%n_owned))
   end subroutine watch_halo
 
-  !> The largest bounding radius of a moving body held (owned or ghost) [m].
-  real(dp) function r_max_moving(self) result(r_max)
-    type(simulation_t), intent(in) :: self
-    integer :: i
-    r_max = 0.0_dp
-    do i = 1, self%bodies%n_total()
-      if (.not. self%bodies%fixed(i)) r_max = max(r_max, self%shapes%shapes(self%bodies%shape_id(i))%bounding_radius)
-    end do
-  end function r_max_moving
 
-  !> Whether point lies within rings boxes of a side of this rank's brick that has a
-  !> neighbouring brick (what the halo exchange sends to it).
-  logical function near_neighbour(dom, point, rings) result(near)
+  !> The sides of this rank's brick with a neighbouring brick within rings boxes of which
+  !> point lies (what the halo exchange sends it to): bit 2k-2 the lower side of axis k,
+  !> 2k-1 the upper.
+  integer function near_sides(dom, point, rings) result(sides)
     type(domain_t), intent(in) :: dom
     real(dp), intent(in) :: point(3)
     integer, intent(in) :: rings
@@ -408,53 +412,80 @@ contains
     integer :: k
     mine = dom%brick(dom%rank)
     box = dom%box_of(point)
-    near = .false.
+    sides = 0
     do k = 1, 3
-      if (dom%face_neighbour(2*k - 1) >= 0 .and. box(k) - mine%lo(k) < rings) near = .true.
-      if (dom%face_neighbour(2*k) >= 0 .and. mine%hi(k) - box(k) < rings) near = .true.
+      if (dom%face_neighbour(2*k - 1) >= 0 .and. box(k) - mine%lo(k) < rings) sides = ibset(sides, 2*k - 2)
+      if (dom%face_neighbour(2*k) >= 0 .and. mine%hi(k) - box(k) < rings) sides = ibset(sides, 2*k - 1)
     end do
-  end function near_neighbour
+  end function near_sides
 
-  !> Which ghosts their owners changed in this window, and when (changed_at(row): the first
-  !> change, never if none; owned and fixed rows never): every rank sends the owned bodies
-  !> other ranks hold (frontier) that changed to each neighbour (gid, first change: one
-  !> alltoallv) and looks the received gids up among its ghost rows. Collective.
-  subroutine exchange_changes(self, par, frontier, changed_at, err)
+  !> What the neighbours changed in this window: every rank sends each neighbour its owned
+  !> bodies other ranks hold (frontier) that changed, with the first change and the box
+  !> their centre swept from it to the end of the run (one alltoallv). changed_at(row): when
+  !> a ghost row's owner first changed it (never if not). t_both: the first time from which
+  !> two bodies of two ranks that both changed may meet [s]: each rank certifies its pairs
+  !> with ghosts against the ghost's trajectory of the window's start, which is right while
+  !> the ghost keeps it (a contact is then found by the rank whose body changed); two that
+  !> both changed (at t_a here, t_b there) are seen by nobody from max(t_a, t_b) on, so any
+  !> such two whose swept boxes come within their radii and the band give max(t_a, t_b),
+  !> whether or not a pair of them was ever made (their copies may have been far apart).
+  !> Collective.
+  subroutine exchange_changes(self, par, frontier, changed_at, t_both, err)
     type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     logical, intent(in) :: frontier(:)
     real(dp), allocatable, intent(out) :: changed_at(:)
+    real(dp), intent(out) :: t_both
     type(error_t), intent(inout) :: err
+    integer, parameter :: w = 9     ! gid, first change, box lower (3) and upper (3), radius
     real(dp), allocatable :: mine(:), send(:), recv(:)
     integer(i8), allocatable :: keys(:, :)
-    integer, allocatable :: counts(:), neighbours(:), order(:)
-    integer :: i, k, n, n0, ng, lo, hi, mid
+    integer, allocatable :: counts(:), neighbours(:), order(:), rows(:)
+    integer :: i, k, j, n, n0, ng, lo, hi, mid, o
     integer(i8) :: gid
+    real(dp) :: band, reach, glo(3), ghi(3)
+    t_both = never
     allocate (changed_at(self%bodies%n_total()))
     changed_at = never
     n = 0
-    allocate (mine(2*self%bodies%n_owned))
+    allocate (mine(w*self%bodies%n_owned), rows(0))
     do i = 1, min(size(frontier), self%bodies%n_owned)
       if (.not. frontier(i) .or. self%bodies%fixed(i)) cycle
       if (self%events%first_change(i) >= never) cycle
-      mine(2*n + 1) = transfer(self%bodies%gid(i), 1.0_dp)
-      mine(2*n + 2) = self%events%first_change(i)
+      mine(w*n + 1) = transfer(self%bodies%gid(i), 1.0_dp)
+      mine(w*n + 2) = self%events%first_change(i)
+      mine(w*n + 3:w*n + 5) = self%events%path_lo(:, i)
+      mine(w*n + 6:w*n + 8) = self%events%path_hi(:, i)
+      mine(w*n + 9) = self%shapes%shapes(self%bodies%shape_id(i))%bounding_radius
+      rows = [rows, i]
       n = n + 1
     end do
     neighbours = self%dom%neighbours()
     allocate (counts(0:par%n_ranks - 1), send(0))
     counts = 0
     do k = 1, size(neighbours)
-      counts(neighbours(k)) = 2*n
+      counts(neighbours(k)) = w*n
     end do
     do k = 0, par%n_ranks - 1
-      if (counts(k) > 0) send = [send, mine(1:2*n)]
+      if (counts(k) > 0) send = [send, mine(1:w*n)]
     end do
     call par%alltoallv(send, counts, recv, err)
     if (par%any(err%failed())) then
       if (err%ok()) call err%set(ERR_INTERNAL, 'exchanging changed bodies failed on another rank')
       return
     end if
+    ! two that both changed and whose swept boxes come within reach of each other
+    band = self%collisions%target + self%collisions%tolerance + self%collisions%contact_tolerance
+    do k = 1, size(recv)/w
+      glo = recv(w*(k - 1) + 3:w*(k - 1) + 5)
+      ghi = recv(w*(k - 1) + 6:w*(k - 1) + 8)
+      do j = 1, n
+        o = rows(j)
+        reach = mine(w*(j - 1) + 9) + recv(w*k) + band
+        if (any(self%events%path_lo(:, o) - reach > ghi) .or. any(self%events%path_hi(:, o) + reach < glo)) cycle
+        t_both = min(t_both, max(self%events%first_change(o), recv(w*(k - 1) + 2)))
+      end do
+    end do
     ! the ghost rows by gid (halo ghosts first, fixed ones after: sorted here)
     n0 = self%bodies%n_owned
     ng = self%bodies%n_ghost
@@ -462,14 +493,14 @@ contains
     allocate (keys(1, ng))
     keys(1, :) = self%bodies%gid(n0 + 1:n0 + ng)
     call sort_index_keys(keys, order)
-    do k = 1, size(recv)/2
-      gid = transfer(recv(2*k - 1), 1_i8)
+    do k = 1, size(recv)/w
+      gid = transfer(recv(w*(k - 1) + 1), 1_i8)
       lo = 1
       hi = ng
       do while (lo <= hi)
         mid = (lo + hi)/2
         if (keys(1, order(mid)) == gid) then
-          changed_at(n0 + order(mid)) = min(changed_at(n0 + order(mid)), recv(2*k))
+          changed_at(n0 + order(mid)) = min(changed_at(n0 + order(mid)), recv(w*(k - 1) + 2))
           exit
         else if (keys(1, order(mid)) < gid) then
           lo = mid + 1
@@ -479,25 +510,6 @@ contains
       end do
     end do
   end subroutine exchange_changes
-
-  !> The first time from which a pair of bodies of two ranks may both follow trajectories
-  !> the other rank has not seen [s]: each rank certifies its pairs with ghosts against the
-  !> ghost's trajectory of the window's start, right while the ghost keeps it (a contact
-  !> is then found by the rank whose body changed); a pair whose two bodies both changed (at
-  !> t_a here, t_b on the ghost's owner) is seen by nobody from max(t_a, t_b) on. Over the
-  !> pairs made with a moving ghost this window.
-  real(dp) function both_changed_time(self, changed_at) result(t)
-    type(simulation_t), intent(in) :: self
-    real(dp), intent(in) :: changed_at(:)
-    integer :: k, o, g
-    t = never
-    do k = 1, self%events%n_cross_pairs
-      o = self%events%cross_pairs(1, k)
-      g = self%events%cross_pairs(2, k)
-      if (self%events%first_change(o) >= never .or. changed_at(g) >= never) cycle
-      t = min(t, max(self%events%first_change(o), changed_at(g)))
-    end do
-  end function both_changed_time
 
   !> After a cross phase at t: every ghost whose trajectory this rank changed goes to its
   !> owner (row and flight record, one alltoallv), who takes both bit for bit. A body

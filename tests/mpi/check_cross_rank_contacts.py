@@ -17,6 +17,9 @@ counters):
 - gas: 200 spheres in a closed box, random start, e = 1; 2, 3 and 4 ranks; bodies change
   rank and cross-rank impacts happen. A restart written on 4 ranks at t = 0.5 s goes on
   on 2 ranks, and one written on 1 rank goes on on 4, as the uninterrupted run.
+- three scenes from a review (tests/data/cross_rank): a ghost-held body wandering to
+  another neighbour's side, two bodies that both changed with no pair ever made, a body
+  re-placed at every bounce in a channel (never a box crossing);
 - the billiards break (input/validation/billiards_break.nml): groups of touching balls
   split between ranks; 2 and 4 ranks.
 - an impulse group reaching across more than one brick (a Newton's cradle of 13 balls on
@@ -167,6 +170,16 @@ for written, goes_on in ((4, 2), (1, 4)):
     same_checkpoint(c, os.path.join(gas_one, "checkpoint_final.h5"), os.path.join(out, "checkpoint_final.h5"), what,
                     sampled_counters=COUNTERS)
     same_frames(c, gas_one, out, what)
+
+# Three scenes a review built against the first versions, each of which then missed a
+# contact on 2-3 ranks (tests/data/cross_rank): a body held as a ghost by one neighbour
+# wandering inside its brick to another neighbour's side (3 ranks); two bodies of two ranks
+# that both changed towards each other while their ghost copies stayed far apart (no pair of
+# them was ever made); a body bounced along a channel whose region moves at every impact,
+# so that it never has a box crossing. Each must give the one-rank files.
+DATA = os.path.join(os.path.dirname(__file__), "..", "data", "cross_rank")
+for name, ranks in (("zone_body_wanders", 3), ("both_changed_pair_never_made", 2), ("channel_no_crossing", 2)):
+    compare(name, os.path.join(DATA, name + ".nml"), (ranks,), need_cross=False)
 
 # The billiards break: touching balls of the rack in impulse groups split between ranks.
 billiards = os.path.join(SOURCE, "input", "validation", "billiards_break.nml")
