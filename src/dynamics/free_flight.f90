@@ -244,19 +244,10 @@ contains
     class(free_flight_t), intent(inout) :: self
     integer(i8), intent(in) :: words(:, :)
     type(integrator_config_t), intent(in) :: config
-    type(free_rotor_t) :: probe
-    integer :: k, w
+    integer :: k
     call self%init(size(words, 2), config)
-    w = size(words, 1)
     do k = 1, size(words, 2)
-      self%loaded(k) = words(1, k) /= 0
-      self%accel(:, k) = transfer(words(2:4, k), self%accel(:, k))
-      if (.not. self%exact) cycle
-      self%anchored(k) = words(5, k) /= 0
-      self%t0(k) = transfer(words(6, k), self%t0(k))
-      self%x0(:, k) = transfer(words(7:9, k), self%x0(:, k))
-      self%v0(:, k) = transfer(words(10:12, k), self%v0(:, k))
-      self%rotors(k) = transfer(words(13:w, k), probe)
+      call self%set_record(k, words(:, k))
     end do
   end subroutine flight_unpack_anchors
 

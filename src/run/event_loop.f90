@@ -746,10 +746,7 @@ contains
     type(error_t), intent(inout) :: err
     integer :: k
     do k = 1, size(list)
-      self%state_time(list(k)) = t
-      self%version(list(k)) = self%version(list(k)) + 1
-      self%changes(list(k)) = self%changes(list(k)) + 1
-      self%stats%trajectory_changes = self%stats%trajectory_changes + 1
+      call count_change(self, list(k), t)
     end do
     call settle_changed(self, stage, bodies, shapes, flight, list, t, err)
   end subroutine loop_take_trajectories
@@ -807,9 +804,7 @@ contains
     type(free_flight_t), intent(inout) :: flight
     integer, intent(in) :: i
     real(dp), intent(in) :: t
-    self%state_time(i) = t
-    self%version(i) = self%version(i) + 1
-    self%changes(i) = self%changes(i) + 1
+    call count_change(self, i, t)
     if (allocated(self%path_lo) .and. .not. bodies%fixed(i)) then
       if (i <= size(self%path_lo, 2)) then
         if (self%first_change(i) >= far_future) then
@@ -823,9 +818,19 @@ contains
     if (allocated(self%first_change)) then
       if (i <= size(self%first_change)) self%first_change(i) = min(self%first_change(i), t)
     end if
-    self%stats%trajectory_changes = self%stats%trajectory_changes + 1
     if (.not. bodies%fixed(i)) call flight%anchor_at(bodies, i, t)
   end subroutine new_trajectory
+
+  !> Body i's trajectory changed at t (its state is that at t): a new version, counted.
+  subroutine count_change(self, i, t)
+    type(event_loop_t), intent(inout) :: self
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t
+    self%state_time(i) = t
+    self%version(i) = self%version(i) + 1
+    self%changes(i) = self%changes(i) + 1
+    self%stats%trajectory_changes = self%stats%trajectory_changes + 1
+  end subroutine count_change
 
   !> lo, hi grown by the box of body i's centre over [its anchor time, t] on its present
   !> flight (a parabola: its ends and, per axis, its turning point) [m].

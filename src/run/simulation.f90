@@ -505,17 +505,8 @@ contains
   subroutine take_statics(all, statics)
     type(bodies_t), intent(in) :: all
     type(bodies_t), intent(inout) :: statics
-    integer :: i, n
-    n = count(all%fixed(1:all%n_owned))
-    call statics%allocate(n)
-    n = 0
-    do i = 1, all%n_owned
-      if (.not. all%fixed(i)) cycle
-      n = n + 1
-      call copy_row(all, i, statics, n)
-    end do
-    statics%n_owned = n
-    statics%n_ghost = 0
+    integer :: i
+    call statics%append_rows(all, pack([(i, i=1, all%n_owned)], all%fixed(1:all%n_owned)), .false.)
   end subroutine take_statics
 
   !> The deck fingerprint of bodies held whole on every rank (no reduction needed).

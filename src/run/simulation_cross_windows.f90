@@ -35,7 +35,7 @@ submodule (simulation) simulation_cross_windows
   use event_loop, only: event_stats_t
   use halo_exchange, only: exchange_halo
   use body_packing, only: pack_bodies, unpack_bodies, PACK_HEADER_WORDS
-  use sorting, only: sort_index_keys
+  use sorting, only: sort_index_keys, find_key
   implicit none
 
   integer, parameter :: halo_rings = 2
@@ -246,10 +246,10 @@ contains
     logical, allocatable, intent(out) :: frontier(:)
     type(error_t), intent(inout) :: err
     integer(i8), allocatable :: payload(:, :), sent(:, :), received(:, :), words(:, :), held(:, :), versions(:)
-    integer(i8), allocatable :: old_keys(:, :), old_local(:), old_owner(:), ghost_versions(:)
+    integer(i8), allocatable :: old_keys(:, :), old_sorted(:, :), old_local(:), old_owner(:), ghost_versions(:)
     integer, allocatable :: rows(:), order(:), new_index(:), old_order(:)
-    integer :: n_words, i, k, n_owned, n_halo, lo, hi, mid, n_old_owned, n_old_ghosts, r
-    logical :: found, rebuilt
+    integer :: n_words, i, k, n_owned, n_halo, mid, n_old_owned, n_old_ghosts, r
+    logical :: rebuilt
     ! the last window's ghosts: a ghost that comes again with its owner's same version (the
     ! same trajectory) keeps its row's pairs and certificates, as does a fixed body; the
     ! others go with their pairs
@@ -264,6 +264,7 @@ contains
       old_owner = self%ghost_versions
     end if
     call sort_index_keys(old_keys, old_order)
+    old_sorted = old_keys(:, old_order)
     ! every owned body at self%time
     call evaluate_owned(self)
     call self%propagator%pack_anchors(self%bodies%n_owned, payload)
@@ -286,28 +287,14 @@ contains
       return
     end if
     n_halo = self%bodies%n_ghost
-    ! the fixed bodies no row holds yet (statics and the rows held are both in gid order
-    ! per part: a binary search of each static's gid among the rows held)
+    ! the fixed bodies no row holds yet (a search of each static's gid among the rows held)
     allocate (held(1, n_owned + n_halo))
     held(1, :) = self%bodies%gid(1:n_owned + n_halo)
     call sort_index_keys(held, order)
+    held = held(:, order)
     allocate (rows(0))
     do k = 1, self%statics%n_owned
-      lo = 1
-      hi = size(order)
-      found = .false.
-      do while (lo <= hi)
-        mid = (lo + hi)/2
-        if (held(1, order(mid)) == self%statics%gid(k)) then
-          found = .true.
-          exit
-        else if (held(1, order(mid)) < self%statics%gid(k)) then
-          lo = mid + 1
-        else
-          hi = mid - 1
-        end if
-      end do
-      if (.not. found) rows = [rows, k]
+      if (find_key(held, size(order), [self%statics%gid(k)]) == 0) rows = [rows, k]
     end do
     if (size(rows) > 0) call self%bodies%append_rows(self%statics, rows, .true.)
     ! every row's flight record (a fixed body has none: zeros)
@@ -332,23 +319,13 @@ contains
     versions = [versions(1:n_owned), [(0_i8, i=n_owned + 1, self%bodies%n_total())]]
     ghost_versions = [ghost_versions(1:n_halo), [(-1_i8, i=n_halo + 1, self%bodies%n_ghost)]]
     do r = n_owned + 1, self%bodies%n_total()
-      lo = 1
-      hi = n_old_ghosts
-      do while (lo <= hi)
-        mid = (lo + hi)/2
-        k = old_order(mid)
-        if (old_keys(1, k) == self%bodies%gid(r)) then
-          if (old_owner(k) == ghost_versions(r - n_owned)) then
-            new_index(n_old_owned + k) = r
-            versions(r) = old_local(k)
-          end if
-          exit
-        else if (old_keys(1, k) < self%bodies%gid(r)) then
-          lo = mid + 1
-        else
-          hi = mid - 1
-        end if
-      end do
+      mid = find_key(old_sorted, n_old_ghosts, [self%bodies%gid(r)])
+      if (mid == 0) cycle
+      k = old_order(mid)
+      if (old_owner(k) == ghost_versions(r - n_owned)) then
+        new_index(n_old_owned + k) = r
+        versions(r) = old_local(k)
+      end if
     end do
     call move_alloc(ghost_versions, self%ghost_versions)
     call self%events%remap_bodies(self%collisions, self%bodies, self%shapes, self%propagator, new_index, versions, &
@@ -441,8 +418,7 @@ contains
     real(dp), allocatable :: mine(:), send(:), recv(:)
     integer(i8), allocatable :: keys(:, :)
     integer, allocatable :: counts(:), neighbours(:), order(:), rows(:)
-    integer :: i, k, j, n, n0, ng, lo, hi, mid, o
-    integer(i8) :: gid
+    integer :: i, k, j, n, n0, ng, mid, o
     real(dp) :: band, reach, glo(3), ghi(3)
     t_both = never
     allocate (changed_at(self%bodies%n_total()))
@@ -493,21 +469,10 @@ contains
     allocate (keys(1, ng))
     keys(1, :) = self%bodies%gid(n0 + 1:n0 + ng)
     call sort_index_keys(keys, order)
+    keys = keys(:, order)
     do k = 1, size(recv)/w
-      gid = transfer(recv(w*(k - 1) + 1), 1_i8)
-      lo = 1
-      hi = ng
-      do while (lo <= hi)
-        mid = (lo + hi)/2
-        if (keys(1, order(mid)) == gid) then
-          changed_at(n0 + order(mid)) = min(changed_at(n0 + order(mid)), recv(w*(k - 1) + 2))
-          exit
-        else if (keys(1, order(mid)) < gid) then
-          lo = mid + 1
-        else
-          hi = mid - 1
-        end if
-      end do
+      mid = find_key(keys, ng, [transfer(recv(w*(k - 1) + 1), 1_i8)])
+      if (mid > 0) changed_at(n0 + order(mid)) = min(changed_at(n0 + order(mid)), recv(w*(k - 1) + 2))
     end do
   end subroutine exchange_changes
 

@@ -145,7 +145,7 @@ contains
   module procedure simulation_summary
     real(dp) :: wall, per_step, min_sep, load(3, 3), startup, window_wall, window_loop_wall
     integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages, window_certificates, window_rebuilds
-    integer(i8) :: convex_bounds, cross_count(4)
+    integer(i8) :: convex_bounds, cross_count(4), deferred
     real(dp) :: cross_wall(2), rate
     wall = par%wtime() - self%wall_start
     ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
@@ -166,6 +166,7 @@ contains
     cross_count(1:3) = self%cross_count(1:3)
     cross_count(4) = par%sum(self%cross_count(4))
     cross_wall = [par%max(self%cross_wall(1)), par%max(self%cross_wall(2))]
+    deferred = par%sum(self%events%deferred)
     ! Over every rank (collective, before rank 0 alone goes on to print).
     events = par%sum(self%collisions%stats%events)
     contacts = par%sum(self%collisions%stats%contacts)
@@ -213,7 +214,8 @@ contains
           ' ghosts sent back to their owners); '//str(migrated)//' bodies changed rank, '//str(messages)// &
           ' messages, '//str(bytes)//' bytes'
         write (*, '(a)') '  window costs         '//str(cross_wall(1), '(es9.3)')//' s starting windows (migration, '// &
-          'halo, loop built), '//str(cross_wall(2), '(es9.3)')//' s in runs repeated to an earlier time (slowest rank)'
+          'halo, loop built), '//str(cross_wall(2), '(es9.3)')//' s in runs repeated to an earlier time (slowest rank); '// &
+          str(deferred)//' cross-rank impacts left to the next window (a ghost in their group was stale)'
       else if (self%decomposed) then
         write (*, '(a)') '  windows              '//str(self%windows)//' ended by a migration: '//str(migrated)// &
           ' bodies changed rank, '//str(messages)//' messages, '//str(bytes)//' bytes'
