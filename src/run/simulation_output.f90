@@ -129,7 +129,7 @@ contains
       meta%shape_digests(k) = self%shapes%shapes(k)%digest
       meta%shape_labels(k) = self%shapes%shapes(k)%label
     end do
-    call effective_deck_lines(self%deck, meta%deck_lines)
+    meta%deck_lines = self%deck_lines
     meta%counter_names = [character(len=name_length) :: 'initial_kinetic_translational', &
                           'initial_kinetic_rotational', 'initial_potential', 'max_energy_error', &
                           'max_momentum_error', 'max_angular_momentum_error', 'events', 'contacts', &

@@ -10,6 +10,7 @@
 !> output_group, body_group).
 module namelist_source
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: iso_c_binding, only: c_char, c_ptr, c_double, c_null_char, c_null_ptr
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INPUT, ERR_IO
   use string_utils, only: str, lower, name_index
@@ -1035,18 +1036,29 @@ contains
   end function without_blanks
 
   !> Shortest decimal text that reads back as exactly x ('0.25', '9.81', '1.0e-14').
-  function real_text(x) result(text)
+  !> Effective decks write a dozen reals per body at every checkpoint, so this is fast: one
+  !> formatted write of 21 significant digits (correctly rounded, as every write of gfortran
+  !> is), candidates of 1 to 17 digits rounded from that string, and each tried with C's
+  !> strtod (what a Fortran READ of a real calls: correctly rounded). Rounding a correctly
+  !> rounded string again is the direct rounding except when the digits cut off are exactly
+  !> 5000...: that case (and any other doubt) takes the reference path, one write and one
+  !> READ per number of digits (shortest_digits_by_io). Both give the same text
+  !> (tests/unit/test_deck_text checks it on random and edge values).
+  function real_text(x, by_io) result(text)
     real(dp), intent(in) :: x
+    !> the reference path only (the unit test's comparison)
+    logical, intent(in), optional :: by_io
     character(len=:), allocatable :: text
-    character(len=48) :: buffer
-    character(len=24) :: fmt
-    character(len=:), allocatable :: digits, mantissa
-    integer :: n_digits, e_pos, exponent, first, low, high, middle
+    character(len=20) :: digits
+    integer :: n_digits, exponent
     logical :: negative
 
     if (.not. ieee_is_finite(x)) then
-      write (buffer, '(g0)') x
-      text = trim(adjustl(buffer))
+      block
+        character(len=48) :: buffer
+        write (buffer, '(g0)') x
+        text = trim(adjustl(buffer))
+      end block
       return
     end if
     if (x == 0.0_dp) then
@@ -1054,21 +1066,170 @@ contains
       text = trim(adjustl(text))
       return
     end if
+    negative = x < 0.0_dp
+    if (present(by_io)) then
+      if (by_io) then
+        call shortest_digits_by_io(abs(x), digits, n_digits, exponent)
+        text = decimal_text(digits(1:n_digits), exponent)
+        if (negative) text = '-'//text
+        return
+      end if
+    end if
+    call shortest_digits(abs(x), digits, n_digits, exponent)
+    text = decimal_text(digits(1:n_digits), exponent)
+    if (negative) text = '-'//text
+  end function real_text
+
+  !> The fewest significant digits (digits(1:n), first nonzero, last nonzero unless n = 1)
+  !> and the decimal exponent of the first such that digits * 10^(exponent - n + 1) reads
+  !> back as x (x > 0, finite). Fast path of real_text; see there.
+  subroutine shortest_digits(x, digits, n, exponent)
+    real(dp), intent(in) :: x
+    character(len=20), intent(out) :: digits
+    integer, intent(out) :: n, exponent
+    integer, parameter :: long = 21
+    character(len=48) :: buffer
+    character(len=long) :: exact
+    character(len=long + 1) :: rounded
+    integer :: e_pos, k, e_p, first, low, high, middle
+    logical :: ok, doubt
+    write (buffer, '(es48.20e4)') x
+    buffer = adjustl(buffer)
+    e_pos = scan(buffer, 'Ee')
+    exact = buffer(1:1)//buffer(3:e_pos - 1)
+    exponent = 0
+    do k = e_pos + 2, len_trim(buffer)
+      exponent = 10*exponent + (iachar(buffer(k:k)) - iachar('0'))
+    end do
+    if (buffer(e_pos + 1:e_pos + 1) == '-') exponent = -exponent
     ! Near the top of the range fewer digits could round up past huge() and overflow.
     first = 1
-    if (abs(x) > 1.0e307_dp) first = 17
-    ! The fewest digits that read back as x. Round-tripping is monotone in the number of
-    ! digits (the conversions round correctly), so after the short ones (most deck values:
-    ! 0.1, 2.5) a bisection finds it in four tries instead of up to seventeen (effective
-    ! decks of 10^5 jittered bodies were seconds of formatted I/O at every checkpoint).
-    n_digits = 0
+    if (x > 1.0e307_dp) first = 17
+    ! the reference path's search (1 to 3 digits, then a bisection of 4 to 17), so that both
+    ! give the same digits even where round-tripping is not monotone in the number of
+    ! digits (some powers of two, whose rounding interval is uneven)
+    doubt = .false.
+    n = 0
     do low = first, 3
-      if (round_trips(low)) then
-        n_digits = low
+      if (try(low)) then
+        n = low
         exit
       end if
     end do
-    if (n_digits == 0) then
+    if (n == 0) then
+      low = max(first, 4)
+      high = 17
+      do while (low < high)
+        middle = (low + high)/2
+        if (try(middle)) then
+          high = middle
+        else
+          low = middle + 1
+        end if
+      end do
+      n = low
+    end if
+    if (.not. doubt) ok = try(n)
+    if (doubt) then
+      call shortest_digits_by_io(x, digits, n, exponent)
+      return
+    end if
+    do while (n > 1 .and. rounded(n:n) == '0')
+      n = n - 1
+    end do
+    digits = rounded(1:n)
+    exponent = e_p
+  contains
+    !> rounded(1:p), e_p: exact rounded to p digits; whether that reads back as x (doubt:
+    !> the digits cut off are exactly 5000..., which the 21-digit string may itself have
+    !> been rounded to, so its rounding to p digits is not known here)
+    logical function try(p)
+      integer, intent(in) :: p
+      integer :: k
+      try = .false.
+      if (doubt) return
+      if (exact(p + 1:p + 1) == '5' .and. verify(exact(p + 2:long), '0') == 0) then
+        doubt = .true.
+        return
+      end if
+      rounded = '0'//exact(1:p)
+      e_p = exponent
+      if (exact(p + 1:p + 1) >= '5') then
+        k = p + 1
+        do
+          if (rounded(k:k) == '9') then
+            rounded(k:k) = '0'
+            k = k - 1
+          else
+            rounded(k:k) = achar(iachar(rounded(k:k)) + 1)
+            exit
+          end if
+        end do
+      end if
+      if (rounded(1:1) == '1') then
+        e_p = exponent + 1
+        rounded = rounded(1:p)
+      else
+        rounded = rounded(2:p + 1)
+      end if
+      try = reads_back(rounded(1:p), e_p, x)
+    end function try
+  end subroutine shortest_digits
+
+  !> Whether 0.d x 10^(e + 1) (the digits d given, d(1) the units digit of d.ddd x 10^e)
+  !> reads back as x: C's strtod, correctly rounded as a Fortran READ is (no formatted I/O
+  !> here: that is what made the reference path slow).
+  logical function reads_back(d, e, x)
+    character(len=*), intent(in) :: d
+    integer, intent(in) :: e
+    real(dp), intent(in) :: x
+    interface
+      function c_strtod(text, end) bind(c, name='strtod') result(value)
+        import :: c_char, c_ptr, c_double
+        character(kind=c_char), intent(in) :: text(*)
+        type(c_ptr), value :: end
+        real(c_double) :: value
+      end function c_strtod
+    end interface
+    character(len=48) :: text
+    character(len=8) :: power
+    integer :: m, j
+    m = abs(e + 1)
+    j = len(power)
+    do
+      power(j:j) = achar(iachar('0') + mod(m, 10))
+      m = m/10
+      j = j - 1
+      if (m == 0) exit
+    end do
+    if (e + 1 < 0) then
+      power(j:j) = '-'
+      j = j - 1
+    end if
+    text = '0.'//d//'e'//power(j + 1:)//c_null_char
+    reads_back = c_strtod(text, c_null_ptr) == x
+  end function reads_back
+
+  !> The reference path of shortest_digits: for n = 1, 2, ... one write with n digits and
+  !> one READ of it, the first that reads back (round-tripping is monotone in n, as the
+  !> conversions round correctly: a bisection after the short ones).
+  subroutine shortest_digits_by_io(x, digits, n, exponent)
+    real(dp), intent(in) :: x
+    character(len=20), intent(out) :: digits
+    integer, intent(out) :: n, exponent
+    character(len=48) :: buffer
+    character(len=24) :: fmt
+    integer :: e_pos, first, low, high, middle
+    first = 1
+    if (x > 1.0e307_dp) first = 17
+    n = 0
+    do low = first, 3
+      if (round_trips(low)) then
+        n = low
+        exit
+      end if
+    end do
+    if (n == 0) then
       low = max(first, 4)
       high = 17
       do while (low < high)
@@ -1079,20 +1240,37 @@ contains
           low = middle + 1
         end if
       end do
-      n_digits = low
+      n = low
     end if
-    write (fmt, '(a,i0,a)') '(es48.', n_digits - 1, 'e4)'
+    write (fmt, '(a,i0,a)') '(es48.', n - 1, 'e4)'
     write (buffer, fmt) x
     buffer = adjustl(buffer)
-    negative = buffer(1:1) == '-'
-    if (negative .or. buffer(1:1) == '+') buffer = buffer(2:)
     e_pos = scan(buffer, 'Ee')
-    mantissa = buffer(1:e_pos - 1)
     read (buffer(e_pos + 1:), *) exponent
-    digits = without_dot(mantissa)
-    do while (len(digits) > 1 .and. digits(len(digits):) == '0')
-      digits = digits(1:len(digits) - 1)
+    digits = without_dot(buffer(1:e_pos - 1))
+    n = len_trim(digits)
+    do while (n > 1 .and. digits(n:n) == '0')
+      n = n - 1
     end do
+  contains
+    logical function round_trips(m)
+      integer, intent(in) :: m
+      integer :: ios
+      real(dp) :: back
+      write (fmt, '(a,i0,a)') '(es48.', m - 1, 'e4)'
+      write (buffer, fmt) x
+      read (buffer, *, iostat=ios) back
+      round_trips = ios == 0 .and. back == x
+    end function round_trips
+  end subroutine shortest_digits_by_io
+
+  !> Deck text of the decimal d.ddd x 10^exponent (d: significant digits, no trailing zero
+  !> but the only one): plain notation for exponents -4 to 7 ('0.00025', '9.81', '1000.0'),
+  !> else 'd.ddde<exponent>' ('1.0e-14').
+  pure function decimal_text(digits, exponent) result(text)
+    character(len=*), intent(in) :: digits
+    integer, intent(in) :: exponent
+    character(len=:), allocatable :: text
     if (exponent >= 0 .and. exponent <= 7) then
       if (len(digits) <= exponent + 1) then
         text = digits//repeat('0', exponent + 1 - len(digits))//'.0'
@@ -1102,22 +1280,25 @@ contains
     else if (exponent < 0 .and. exponent >= -4) then
       text = '0.'//repeat('0', -exponent - 1)//digits
     else if (len(digits) == 1) then
-      text = digits//'.0e'//str(exponent)
+      text = digits//'.0e'//int_text(exponent)
     else
-      text = digits(1:1)//'.'//digits(2:)//'e'//str(exponent)
+      text = digits(1:1)//'.'//digits(2:)//'e'//int_text(exponent)
     end if
-    if (negative) text = '-'//text
-  contains
-    logical function round_trips(n)
-      integer, intent(in) :: n
-      integer :: ios
-      real(dp) :: back
-      write (fmt, '(a,i0,a)') '(es48.', n - 1, 'e4)'
-      write (buffer, fmt) x
-      read (buffer, *, iostat=ios) back
-      round_trips = ios == 0 .and. back == x
-    end function round_trips
-  end function real_text
+  end function decimal_text
+
+  pure function int_text(i) result(text)
+    integer, intent(in) :: i
+    character(len=:), allocatable :: text
+    integer :: m
+    m = abs(i)
+    text = ''
+    do
+      text = achar(iachar('0') + mod(m, 10))//text
+      m = m/10
+      if (m == 0) exit
+    end do
+    if (i < 0) text = '-'//text
+  end function int_text
 
   pure function without_dot(text) result(packed)
     character(len=*), intent(in) :: text
