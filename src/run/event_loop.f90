@@ -33,12 +33,12 @@ module event_loop
   use time_of_contact, only: advancement_result_t
   use pair_store, only: pair_store_t, ACTION_NONE, ACTION_QUERY, ACTION_IMPACT, ACTION_ENTER
   use event_queue, only: event_queue_t
-  use cell_grid, only: cell_grid_t
+  use cell_grid, only: cell_grid_t, cell_lists_t
   use islands, only: island_table_t, body_islands
   use sorting, only: sort_index_keys
   implicit none
   private
-  public :: event_loop_t, event_stats_t
+  public :: event_loop_t, event_stats_t, copy_loop
   public :: CROSS_OFF, CROSS_SPECULATE, CROSS_RERUN, CROSS_PHASE, STOP_NONE, STOP_CROSS, STOP_HALO
 
   !> Ghost rows (docs/architecture.md, "Cross-rank contacts"): rows after bodies%n_owned
@@ -175,6 +175,7 @@ module event_loop
     procedure :: take_trajectories => loop_take_trajectories
     procedure :: start_cross_window => loop_start_cross_window
     procedure :: close_paths => loop_close_paths
+    procedure :: queued_cross_time => loop_queued_cross_time
   end type event_loop_t
 
 contains
@@ -861,6 +862,43 @@ contains
     lo = lo - 1.0e-12_dp*(1.0_dp + abs(lo))
     hi = hi + 1.0e-12_dp*(1.0_dp + abs(hi))
   end subroutine sweep_segment
+
+  !> dst = src for a cross-rank window's save and restore: the grid's box lists are copied
+  !> into dst's own (cell_grid set_aside, put_back, copy_lists_from), every other component
+  !> by intrinsic assignment. src is left as it was.
+  subroutine copy_loop(dst, src)
+    type(event_loop_t), intent(inout) :: dst
+    type(event_loop_t), intent(inout) :: src
+    type(cell_lists_t) :: src_lists, dst_lists
+    call src%cells%set_aside(src_lists)
+    call dst%cells%set_aside(dst_lists)
+    dst = src
+    call src%cells%put_back(src_lists)
+    call dst%cells%put_back(dst_lists)
+    call dst%cells%copy_lists_from(src%cells)
+  end subroutine copy_loop
+
+  !> The earliest impact now in the queue of a pair with a moving ghost (far_future if none)
+  !> [s]: a cross-rank window's speculative run ends there on every rank (the impact then
+  !> goes to the cross phase), so that a window whose run meets nothing earlier needs no
+  !> repetition. Most cross-rank impacts of a gas are known at a window's start: its bodies
+  !> change trajectory far more rarely than a window ends. O(pairs of the moving ghosts).
+  real(dp) function loop_queued_cross_time(self, bodies) result(t)
+    class(event_loop_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    integer :: g, slot
+    t = far_future
+    do g = self%n_owned + 1, bodies%n_owned + bodies%n_ghost
+      if (bodies%fixed(g) .or. g > size(self%pairs%head)) cycle
+      slot = self%pairs%head(g)
+      do while (slot > 0)
+        if (self%pairs%action(slot) == ACTION_IMPACT) then
+          if (self%pairs%current(slot, self%version)) t = min(t, self%pairs%t_due(slot))
+        end if
+        slot = self%pairs%next_of(slot, g)
+      end do
+    end do
+  end function loop_queued_cross_time
 
   !> The swept boxes (path_lo, path_hi) of the owned rows that changed, closed at t (the end
   !> of the run): their last segment added.

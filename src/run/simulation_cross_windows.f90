@@ -32,7 +32,7 @@
 !> found them.
 submodule (simulation) simulation_cross_windows
   use event_loop, only: CROSS_OFF, CROSS_SPECULATE, CROSS_RERUN, CROSS_PHASE, STOP_CROSS, STOP_HALO
-  use event_loop, only: event_stats_t
+  use event_loop, only: event_stats_t, copy_loop
   use halo_exchange, only: exchange_halo
   use body_packing, only: pack_bodies, unpack_bodies, PACK_HEADER_WORDS
   use sorting, only: sort_index_keys, find_key
@@ -70,10 +70,10 @@ contains
     logical, allocatable :: frontier(:)
     real(dp), allocatable :: changed_at(:)
     integer(i8), allocatable :: versions(:)
-    real(dp) :: t_stale, t_both
+    real(dp) :: t_stale, t_both, t_known
     integer :: n_log, stuck, i, k
     integer(i8) :: events_before
-    logical :: checkpointed, exclusive
+    logical :: checkpointed, exclusive, to_known
     t_end = self%deck%run%t_end
     stuck = 0
     ! (the impacts so far: a restart's count on rank 0, as the other counters)
@@ -89,8 +89,13 @@ contains
       ! the window's start, to come back to (the event log's rows are only appended: their count)
       call save_state()
       events_before = self%events%stats%impacts
+      ! the earliest cross-rank impact known now: every rank's run ends just before it, and
+      ! if none meets anything earlier the cross phase follows with no repetition
+      t_known = par%min(self%events%queued_cross_time(self%bodies))
+      to_known = t_known <= t_output
       self%events%cross_mode = CROSS_SPECULATE
-      call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_output, t_hard, err)
+      call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, min(t_known, t_output), &
+                                 t_hard, err, exclusive=to_known)
       if (par%any(err%failed())) then
         if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank window failed on another rank')
         return
@@ -114,23 +119,29 @@ contains
       end if
       t_cross = par%min(t_cross)
       t_late = par%min(t_late)
+      ! (every rank's run reached t_known with nothing before it: the known impact's time is
+      ! a cross time, and nobody's run went past it)
+      if (to_known) t_cross = min(t_cross, t_known)
       if (t_cross > t_output .and. t_late >= t_output) then
         ! the window stands: every event up to the output time is the one-rank run's
         self%time = t_output
       else
         clock = par%wtime()
-        self%cross_count(2) = self%cross_count(2) + 1
         exclusive = t_cross <= t_late
         t_v = min(t_cross, t_late)
-        call restore_state()
         self%events%ghost_changed_at = changed_at
-        self%events%cross_mode = CROSS_RERUN
-        self%events%rerun_to = t_v
-        call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err, &
-                                   exclusive=exclusive)
-        if (par%any(err%failed())) then
-          if (err%ok()) call err%set(ERR_INTERNAL, 'a repeated cross-rank window failed on another rank')
-          return
+        if (.not. (to_known .and. exclusive .and. t_v == t_known)) then
+          self%cross_count(2) = self%cross_count(2) + 1
+          call restore_state()
+          self%events%ghost_changed_at = changed_at
+          self%events%cross_mode = CROSS_RERUN
+          self%events%rerun_to = t_v
+          call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err, &
+                                     exclusive=exclusive)
+          if (par%any(err%failed())) then
+            if (err%ok()) call err%set(ERR_INTERNAL, 'a repeated cross-rank window failed on another rank')
+            return
+          end if
         end if
         if (exclusive) then
           ! the cross phase: every event at t_v, those needing ghosts by the lower id's owner
@@ -209,7 +220,7 @@ contains
       saved_stage%impact_friction = self%collisions%impact_friction
       saved_stage%residual_pgs = self%collisions%residual_pgs
       saved_stage%sleep = self%collisions%sleep
-      saved_loop = self%events
+      call copy_loop(saved_loop, self%events)
     end subroutine save_state
     subroutine restore_state()
       self%bodies = saved_bodies
@@ -220,7 +231,7 @@ contains
       self%collisions%residual_pgs = saved_stage%residual_pgs
       self%collisions%sleep = saved_stage%sleep
       self%collisions%n_log = n_log
-      self%events = saved_loop
+      call copy_loop(self%events, saved_loop)
     end subroutine restore_state
   end procedure run_cross_windows
 
