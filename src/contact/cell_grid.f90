@@ -58,11 +58,11 @@ module cell_grid
     procedure :: overlaps => cells_overlaps
     procedure :: set_aside => cells_set_aside
     procedure :: put_back => cells_put_back
-    procedure :: copy_lists_from => cells_copy_lists_from
+    procedure :: rebuild_lists => cells_rebuild_lists
   end type cell_grid_t
 
   !> A grid's box lists held apart from it (cell_grid_t set_aside, put_back): see
-  !> copy_lists_from.
+  !> rebuild_lists.
   type :: cell_lists_t
     private
     type(cell_t), allocatable :: cells(:)
@@ -109,14 +109,16 @@ contains
     self%table_size = 0
   end subroutine cells_free
 
-  !> Copies of a grid that keep their own box lists (a cross-rank window saves its loop and
-  !> restores it every window): the intrinsic copy of a grid allocates every box's list (a
-  !> million-slot table for 13,500 spheres: 80 ms a copy, most of a 27,000-sphere gas on two
-  !> ranks), and gfortran's copy of a type holding one does so even where the grid has a
-  !> defined assignment. So a copy of a holder goes: both grids' lists set aside
-  !> (set_aside), the holder copied (the lists then cost nothing), each grid's own lists put
-  !> back (put_back), and the copy's lists filled from the original's (copy_lists_from:
-  !> a pass over the table, no allocation once the copy's lists are large enough).
+  !> Copies of a grid without its box lists (a cross-rank window saves its loop at every
+  !> window's start and restores it only when the window is run again): the intrinsic copy
+  !> of a grid allocates every box's list (a million-slot table for 13,500 spheres: 80 ms a
+  !> copy, most of a 27,000-sphere gas on two ranks), and gfortran's copy of a type holding
+  !> one does so even where the grid has a defined assignment. So a holder is copied with
+  !> the lists set aside (set_aside, put_back: the copy then holds none), and a grid whose
+  !> other components were restored from such a copy makes its lists again from its bodies'
+  !> box ranges (rebuild_lists). What a grid answers depends only on which bodies each box
+  !> lists: a query's result is sorted, so neither the order within a box nor the table's
+  !> layout shows.
   subroutine cells_set_aside(self, lists)
     class(cell_grid_t), intent(inout) :: self
     type(cell_lists_t), intent(inout) :: lists
@@ -131,32 +133,34 @@ contains
     if (allocated(lists%cells)) call move_alloc(lists%cells, self%cells)
   end subroutine cells_put_back
 
-  !> self's box lists made those of src (every other component already copied): capacities
-  !> may differ from src's, only the first n ids of a box count.
-  subroutine cells_copy_lists_from(self, src)
+  !> The box lists made again from the bodies' box ranges (placed, large, lo, hi), every
+  !> other component as it is; the lists' own allocations are reused where there are some.
+  subroutine cells_rebuild_lists(self)
     class(cell_grid_t), intent(inout) :: self
-    type(cell_grid_t), intent(in) :: src
-    integer :: s, n
-    if (.not. allocated(src%cells)) then
-      if (allocated(self%cells)) deallocate (self%cells)
-      return
-    end if
+    integer :: i, s
+    integer(i8) :: a, b, c
+    if (.not. allocated(self%slot_used)) return
+    self%table_size = size(self%slot_used)
     if (allocated(self%cells)) then
-      if (size(self%cells) /= size(src%cells)) deallocate (self%cells)
+      if (size(self%cells) /= self%table_size) deallocate (self%cells)
     end if
-    if (.not. allocated(self%cells)) allocate (self%cells(size(src%cells)))
-    do s = 1, size(src%cells)
-      n = src%cells(s)%n
-      self%cells(s)%n = n
-      ! (a box in use has a list, maybe empty: insert adds to it)
-      if (n == 0 .and. .not. src%slot_used(s)) cycle
-      if (allocated(self%cells(s)%ids)) then
-        if (size(self%cells(s)%ids) < max(n, 1)) deallocate (self%cells(s)%ids)
-      end if
-      if (.not. allocated(self%cells(s)%ids)) allocate (self%cells(s)%ids(max(size(src%cells(s)%ids), 1)))
-      self%cells(s)%ids(1:n) = src%cells(s)%ids(1:n)
+    if (.not. allocated(self%cells)) allocate (self%cells(self%table_size))
+    do s = 1, self%table_size
+      self%cells(s)%n = 0
     end do
-  end subroutine cells_copy_lists_from
+    self%slot_used = .false.
+    self%n_used = 0
+    do i = 1, size(self%placed)
+      if (.not. self%placed(i) .or. self%large(i)) cycle
+      do c = self%lo(3, i), self%hi(3, i)
+        do b = self%lo(2, i), self%hi(2, i)
+          do a = self%lo(1, i), self%hi(1, i)
+            call insert(self, [a, b, c], i)
+          end do
+        end do
+      end do
+    end do
+  end subroutine cells_rebuild_lists
 
   !> Room for bodies up to n.
   subroutine cells_grow_bodies(self, n)

@@ -158,6 +158,10 @@ module event_loop
     real(dp) :: watch_lo(3) = -far_future, watch_hi(3) = far_future
     real(dp) :: brick_lo(3) = -far_future, brick_hi(3) = far_future
     integer, allocatable :: zone_sides(:)
+    !> A placement of an owned body found it outside what the halo covers (the condition of
+    !> STOP_HALO) in this window, in any cross mode (a cross phase or a repeated run does not
+    !> stop for it): the next window must start in full, with migration and the whole halo
+    logical :: halo_seen = .false.
     !> a ghost in an impulse group of the cross phase must lie in [complete_lo, complete_hi]:
     !> every body within the band of it is then held here [m]
     real(dp) :: complete_lo(3) = -far_future, complete_hi(3) = far_future
@@ -173,6 +177,7 @@ module event_loop
     procedure :: next_event_time => loop_next_event_time
     procedure :: bodies_unchanged => loop_bodies_unchanged
     procedure :: take_trajectories => loop_take_trajectories
+    procedure :: take_ghost_trajectories => loop_take_ghost_trajectories
     procedure :: start_cross_window => loop_start_cross_window
     procedure :: close_paths => loop_close_paths
     procedure :: queued_cross_time => loop_queued_cross_time
@@ -752,6 +757,47 @@ contains
     call settle_changed(self, stage, bodies, shapes, flight, list, t, err)
   end subroutine loop_take_trajectories
 
+  !> Ghost rows (list) whose rows and flight records were just replaced by their owners'
+  !> at t, a light window start's (simulation_cross_windows light_start): each a new
+  !> trajectory here, placed again (its pairs with every body held made where missing: a
+  !> cross phase may have dropped one) and its pairs certified from t. First every ghost's
+  !> pairs that are not this rank's are dropped (a cross phase makes them).
+  subroutine loop_take_ghost_trajectories(self, stage, bodies, shapes, flight, list, t, err)
+    class(event_loop_t), intent(inout) :: self
+    type(collision_stage_t), intent(inout) :: stage
+    type(bodies_t), intent(inout) :: bodies
+    type(shape_library_t), intent(in) :: shapes
+    type(free_flight_t), intent(inout) :: flight
+    integer, intent(in) :: list(:)
+    real(dp), intent(in) :: t
+    type(error_t), intent(inout) :: err
+    integer :: k, g, slot, next_slot
+    ! the pairs a cross phase made on the spot for a ghost of its impulse group, with fixed
+    ! bodies and other ghosts, are not this rank's (held_pair): gone, as a full start's
+    ! remap drops them with the ghost's row
+    do g = self%n_owned + 1, bodies%n_owned + bodies%n_ghost
+      slot = self%pairs%head(g)
+      do while (slot > 0)
+        next_slot = self%pairs%next_of(slot, g)
+        if (.not. held_pair(self, bodies, self%pairs%a(slot), self%pairs%b(slot))) then
+          call self%pair_queue%remove(slot)
+          call self%pairs%remove(slot)
+        end if
+        slot = next_slot
+      end do
+    end do
+    do k = 1, size(list)
+      call count_change(self, list(k), t)
+      call replace(self, stage, bodies, shapes, flight, list(k), t, err)
+      if (err%failed()) return
+    end do
+    call certify_pairs_of(self, stage, bodies, shapes, flight, list, t, err)
+    if (err%failed()) return
+    do k = 1, size(list)
+      if (.not. bodies%fixed(list(k))) call schedule_crossing(self, bodies, flight, list(k), t)
+    end do
+  end subroutine loop_take_ghost_trajectories
+
   !> A cross-rank window starts (after remap_bodies brought the ghosts in): nothing has
   !> changed in it yet, no stop, no swept path.
   subroutine loop_start_cross_window(self, bodies)
@@ -764,6 +810,7 @@ contains
     allocate (self%path_lo(3, bodies%n_owned), self%path_hi(3, bodies%n_owned))
     self%stop_kind = STOP_NONE
     self%stop_time = far_future
+    self%halo_seen = .false.
     self%n_stop_rows = 0
     self%n_dropped_rows = 0
     if (.not. allocated(self%dropped_rows)) allocate (self%dropped_rows(8))
@@ -863,19 +910,22 @@ contains
     hi = hi + 1.0e-12_dp*(1.0_dp + abs(hi))
   end subroutine sweep_segment
 
-  !> dst = src for a cross-rank window's save and restore: the grid's box lists are copied
-  !> into dst's own (cell_grid set_aside, put_back, copy_lists_from), every other component
-  !> by intrinsic assignment. src is left as it was.
-  subroutine copy_loop(dst, src)
+  !> dst = src for a cross-rank window's save (restoring: restored) and restore: the cell
+  !> grid's box lists are not copied (dst keeps its own allocations), every other component
+  !> is (intrinsic assignment); a restored loop makes its lists again from its bodies' box
+  !> ranges (cell_grid rebuild_lists). A save is then a copy of arrays, and the lists are
+  !> paid for only by the windows run again. src is left as it was.
+  subroutine copy_loop(dst, src, restoring)
     type(event_loop_t), intent(inout) :: dst
     type(event_loop_t), intent(inout) :: src
+    logical, intent(in) :: restoring
     type(cell_lists_t) :: src_lists, dst_lists
     call src%cells%set_aside(src_lists)
     call dst%cells%set_aside(dst_lists)
     dst = src
     call src%cells%put_back(src_lists)
     call dst%cells%put_back(dst_lists)
-    call dst%cells%copy_lists_from(src%cells)
+    if (restoring) call dst%cells%rebuild_lists()
   end subroutine copy_loop
 
   !> The earliest impact now in the queue of a pair with a moving ghost (far_future if none)
@@ -931,11 +981,13 @@ contains
     if (err%failed()) call err%prefix('body '//str(bodies%gid(i))//': ')
     ! (every placement, not only box crossings: an impact that moves a body's region is one
     ! too, and a body hit every quarter box would otherwise never be looked at)
-    if (self%cross_mode == CROSS_SPECULATE .and. i <= self%n_owned .and. .not. bodies%fixed(i) .and. &
-        self%stop_kind == STOP_NONE) then
+    if (self%cross_mode /= CROSS_OFF .and. i <= self%n_owned .and. .not. bodies%fixed(i)) then
       if (halo_left(self, bodies, i)) then
-        self%stop_kind = STOP_HALO
-        self%stop_time = self%time
+        self%halo_seen = .true.
+        if (self%cross_mode == CROSS_SPECULATE .and. self%stop_kind == STOP_NONE) then
+          self%stop_kind = STOP_HALO
+          self%stop_time = self%time
+        end if
       end if
     end if
   end subroutine place

@@ -69,21 +69,38 @@ contains
     integer, allocatable :: owner(:)
     logical, allocatable :: frontier(:)
     real(dp), allocatable :: changed_at(:)
-    integer(i8), allocatable :: versions(:)
+    integer(i8), allocatable :: versions(:), start_versions(:)
+    integer, allocatable :: dropped(:)
+    logical :: need_full
     real(dp) :: t_stale, t_both, t_known
     integer :: n_log, stuck, i, k
     integer(i8) :: events_before
     logical :: checkpointed, exclusive, to_known
     t_end = self%deck%run%t_end
     stuck = 0
+    need_full = .true.
+    allocate (dropped(0))
     ! (the impacts so far: a restart's count on rank 0, as the other counters)
     self%events%stats%impacts = self%collisions%stats%events
     do while (self%time < t_end)
       t_output = min(t_end, self%next_output, self%next_history, self%next_checkpoint)
       t_hard = min(t_end, self%next_checkpoint)
       clock = par%wtime()
-      call start_window(self, par, t_hard, owner, frontier, err)
-      if (err%failed()) return
+      if (need_full) then
+        ! (the ghosts whose pair a cross phase dropped come again afresh, with all their pairs)
+        do i = 1, size(dropped)
+          k = dropped(i) - self%bodies%n_owned
+          if (k >= 1 .and. k <= size(self%ghost_versions)) self%ghost_versions(k) = -2_i8
+        end do
+        call start_window(self, par, t_hard, owner, frontier, err)
+        if (err%failed()) return
+      else
+        call light_start(self, par, frontier, start_versions, dropped, err)
+        if (err%failed()) return
+        self%cross_count(5) = self%cross_count(5) + 1
+      end if
+      dropped = [integer ::]
+      start_versions = self%events%version(1:self%bodies%n_owned)
       self%cross_wall(1) = self%cross_wall(1) + (par%wtime() - clock)
       self%cross_count(1) = self%cross_count(1) + 1
       ! the window's start, to come back to (the event log's rows are only appended: their count)
@@ -153,10 +170,7 @@ contains
             if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank impact failed on another rank')
             return
           end if
-          do i = 1, self%events%n_dropped_rows
-            k = self%events%dropped_rows(i) - self%bodies%n_owned
-            if (k >= 1 .and. k <= size(self%ghost_versions)) self%ghost_versions(k) = -2_i8
-          end do
+          dropped = [dropped, self%events%dropped_rows(1:self%events%n_dropped_rows)]
           call send_ghost_updates(self, par, owner, versions, t_v, err)
           if (err%failed()) return
         end if
@@ -175,6 +189,9 @@ contains
         self%cross_wall(2) = self%cross_wall(2) + (par%wtime() - clock)
       end if
       self%events%cross_mode = CROSS_OFF
+      ! the next window starts light (only the ghosts that changed come again) unless a body
+      ! left what the halo covers somewhere
+      need_full = par%any(self%events%halo_seen)
       ! (events of every rank: the same count on any number of ranks)
       self%step = self%step + par%sum(self%events%stats%impacts - events_before)
       self%collisions%stats%events = self%events%stats%impacts
@@ -192,6 +209,8 @@ contains
         ! the one-rank loop is): every owned body anchored there, no ghosts until the next window
         self%bodies%n_ghost = 0
         if (allocated(self%ghost_versions)) deallocate (self%ghost_versions)
+        need_full = .true.
+        dropped = [integer ::]
         call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, self%deck%run%gravity, &
                               self%deck%integrator, self%time, self%deck%run%dt_max, min(t_end, self%next_checkpoint), err)
         if (par%any(err%failed())) then
@@ -220,7 +239,7 @@ contains
       saved_stage%impact_friction = self%collisions%impact_friction
       saved_stage%residual_pgs = self%collisions%residual_pgs
       saved_stage%sleep = self%collisions%sleep
-      call copy_loop(saved_loop, self%events)
+      call copy_loop(saved_loop, self%events, restoring=.false.)
     end subroutine save_state
     subroutine restore_state()
       self%bodies = saved_bodies
@@ -231,7 +250,7 @@ contains
       self%collisions%residual_pgs = saved_stage%residual_pgs
       self%collisions%sleep = saved_stage%sleep
       self%collisions%n_log = n_log
-      call copy_loop(self%events, saved_loop)
+      call copy_loop(self%events, saved_loop, restoring=.true.)
     end subroutine restore_state
   end procedure run_cross_windows
 
@@ -350,6 +369,108 @@ contains
     call self%events%start_cross_window(self%bodies)
     call watch_halo(self)
   end subroutine start_window
+
+  !> A light window start (docs/architecture.md, "Light window starts"), allowed while no
+  !> owned body has left what the halo of the last full start covers (no halo_seen since):
+  !> every rank's rows stay as they are, nothing migrates, and only the frontier bodies
+  !> (held as ghosts elsewhere) whose trajectory changed since the last start go to the
+  !> neighbours, evaluated at self%time, with their flight records and versions (one
+  !> alltoallv); a rank holding one as a ghost takes row, record and version bit for bit
+  !> and the loop takes it as a new trajectory (take_ghost_trajectories), as it takes the
+  !> ghosts whose pair a cross phase dropped (dropped: rows), whose pairs it makes again.
+  !> Every ghost then follows its owner's trajectory, as after a full start, so the window
+  !> that follows is the same; a full start's migration and two-ring exchange were
+  !> O(bodies per rank), this is O(changed frontier bodies) but for the flight records'
+  !> packing. Collective.
+  subroutine light_start(self, par, frontier, start_versions, dropped, err)
+    type(simulation_t), intent(inout) :: self
+    type(parallel_t), intent(in) :: par
+    logical, intent(in) :: frontier(:)
+    integer(i8), intent(in) :: start_versions(:)
+    integer, intent(in) :: dropped(:)
+    type(error_t), intent(inout) :: err
+    integer(i8), allocatable :: words(:, :), extra(:, :), got(:, :), keys(:, :)
+    real(dp), allocatable :: part(:), send(:), recv(:)
+    integer, allocatable :: rows(:), counts(:), neighbours(:), order(:), taken(:)
+    logical, allocatable :: take(:)
+    type(bodies_t) :: arrived
+    integer :: n0, ng, i, k, o, r, mid, n_words, w
+    integer(i8) :: n8, w8
+    n0 = self%bodies%n_owned
+    ng = self%bodies%n_ghost
+    ! the changed frontier bodies, at the window's start
+    allocate (rows(0))
+    do i = 1, min(n0, size(frontier), size(start_versions))
+      if (.not. frontier(i) .or. self%bodies%fixed(i)) cycle
+      if (self%events%version(i) == start_versions(i)) cycle
+      call self%propagator%evaluate(self%bodies, i, self%time, self%deck%run%gravity)
+      rows = [rows, i]
+    end do
+    call self%propagator%pack_anchors(n0, words)
+    w = size(words, 1)
+    allocate (extra(w + 1, n0))
+    extra(1:w, :) = words
+    extra(w + 1, :) = self%events%version(1:n0)
+    call pack_bodies(self%bodies, rows, part, extra)
+    neighbours = self%dom%neighbours()
+    allocate (counts(0:par%n_ranks - 1), send(0))
+    counts = 0
+    do r = 0, par%n_ranks - 1
+      if (.not. any(neighbours == r) .or. r == par%rank) cycle
+      counts(r) = size(part)
+      send = [send, part]
+    end do
+    call par%alltoallv(send, counts, recv, err)
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'a light window start failed on another rank')
+      return
+    end if
+    ! the ghost rows by gid
+    allocate (keys(1, ng), take(ng))
+    take = .false.
+    if (ng > 0) keys(1, :) = self%bodies%gid(n0 + 1:n0 + ng)
+    call sort_index_keys(keys, order)
+    keys = keys(:, order)
+    o = 0
+    do while (o + PACK_HEADER_WORDS <= size(recv))
+      n8 = transfer(recv(o + 2), 1_i8)
+      w8 = transfer(recv(o + 3), 1_i8)
+      n_words = int(PACK_HEADER_WORDS + n8*w8)
+      call arrived%free()
+      call arrived%allocate(int(n8))
+      arrived%n_owned = 0
+      arrived%n_ghost = 0
+      call unpack_bodies(recv(o + 1:o + n_words), arrived, .false., err, extra=got)
+      if (err%failed()) exit
+      do k = 1, arrived%n_owned
+        mid = find_key(keys, ng, [arrived%gid(k)])
+        if (mid == 0) cycle      ! (a neighbour's frontier body this rank does not hold)
+        i = order(mid)
+        call copy_row(arrived, k, self%bodies, n0 + i)
+        call self%propagator%set_record(n0 + i, got(1:w, k))
+        self%ghost_versions(i) = got(w + 1, k)
+        take(i) = .true.
+      end do
+      o = o + n_words
+    end do
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'a light window start failed on another rank')
+      return
+    end if
+    do k = 1, size(dropped)
+      i = dropped(k) - n0
+      if (i >= 1 .and. i <= ng) take(i) = .true.
+    end do
+    taken = pack([(n0 + i, i=1, ng)], take)
+    call self%events%take_ghost_trajectories(self%collisions, self%bodies, self%shapes, self%propagator, taken, &
+                                             self%time, err)
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'a light window start failed on another rank')
+      return
+    end if
+    call self%events%start_cross_window(self%bodies)
+    call watch_halo(self)
+  end subroutine light_start
 
   !> The loop's regions of halo stops and of complete impulse groups for this window (see
   !> event_loop's in_zone and complete_lo; the bounds: cross_box_size).

@@ -15,7 +15,9 @@ counters):
 - corner: the same at the corner of a 2 x 2 x 2 decomposition; 8 ranks (oversubscribed,
   a scene of four bodies).
 - gas: 200 spheres in a closed box, random start, e = 1; 2, 3 and 4 ranks; bodies change
-  rank and cross-rank impacts happen. A restart written on 4 ranks at t = 0.5 s goes on
+  rank, cross-rank impacts happen, and windows start light (only the ghosts whose owners
+  changed them come again: checked to happen, so that the comparison covers them). A
+  restart written on 4 ranks at t = 0.5 s goes on
   on 2 ranks, and one written on 1 rank goes on on 4, as the uninterrupted run.
 - three scenes from a review (tests/data/cross_rank): a ghost-held body wandering to
   another neighbour's side, two bodies that both changed with no pair ever made, a body
@@ -68,9 +70,10 @@ def run(ranks, path, out, *extra, expect_ok=True):
 
 
 def cross_counts(text):
-    """(windows, repeated, cross phases, ghosts sent back, bodies that changed rank) of the summary."""
+    """(windows, repeated, cross phases, ghosts sent back, light starts, bodies that changed rank)
+    of the summary."""
     m = re.search(r"cross-rank windows\s+(\d+) \((\d+) run again.*?, (\d+) of them ending at cross-rank impacts, "
-                  r"(\d+) ghosts sent back to their owners\); (\d+) bodies changed rank", text)
+                  r"(\d+) ghosts sent back to their owners, (\d+) started light[^)]*\); (\d+) bodies changed rank", text)
     return tuple(int(x) for x in m.groups()) if m else None
 
 
@@ -89,7 +92,7 @@ def same_run(one, other, what):
                             sampled_counters=COUNTERS)
 
 
-def compare(name, path, ranks_list, need_cross=True):
+def compare(name, path, ranks_list, need_cross=True, need_light=False):
     one = os.path.join(work, f"{name}_1")
     run(1, path, one)
     for ranks in ranks_list:
@@ -99,7 +102,12 @@ def compare(name, path, ranks_list, need_cross=True):
         c.check(counts is not None, f"{name} on {ranks} ranks: cross-rank windows ({proc.stdout[-400:]})")
         if counts and need_cross:
             c.check(counts[2] > 0 and counts[3] > 0, f"{name} on {ranks} ranks: impacts across ranks happened "
-                                                    f"(windows, repeated, phases, ghosts sent, migrated: {counts})")
+                                                    f"(windows, repeated, phases, ghosts sent, light, migrated: "
+                                                    f"{counts})")
+        if counts and need_light:
+            # (light starts, where only the ghosts that changed come again, are then part of
+            # what the bitwise comparison below checks)
+            c.check(counts[4] > 0, f"{name} on {ranks} ranks: windows started light ({counts})")
         same_run(one, out, f"{name}: 1 vs {ranks} ranks")
     return one
 
@@ -159,7 +167,7 @@ for k in range(n):
     lines.append("&body name = 'b%d', %s, position = %r, %r, %r, velocity = %r, %r, %r /"
                  % (k, SPHERE, *map(float, pos[k]), *map(float, vel[k])))
 gas = deck("gas.nml", "\n".join(lines) + "\n")
-gas_one = compare("gas", gas, (2, 3, 4))
+gas_one = compare("gas", gas, (2, 3, 4), need_light=True)
 # restarts across rank counts: 4 -> 2 and 1 -> 4, from the checkpoint at t = 0.5 s
 for written, goes_on in ((4, 2), (1, 4)):
     out = os.path.join(work, f"gas_restart_{written}_{goes_on}")
