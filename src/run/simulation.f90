@@ -70,7 +70,7 @@ module simulation
     !> The effective deck's lines (deck_reader effective_deck_lines), made once at init: the
     !> deck does not change during a run and every checkpoint stores them (formatting them
     !> at each checkpoint was most of a 10^4-body gas's run)
-    character(len=line_length), allocatable :: deck_lines(:)
+    character(len=:), allocatable :: deck_lines(:)
     real(dp) :: startup_wall = 0.0_dp     !< wall time of init on this rank, this run [s]
     real(dp) :: last_progress = 0.0_dp
     real(dp) :: last_dt = 0.0_dp

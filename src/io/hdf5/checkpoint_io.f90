@@ -131,10 +131,18 @@ contains
     call h5u_create_group(file_id, 'shapes', group_id, err)
     call h5u_write(group_id, 'digest', shape_digests, n_shapes, 0_i8, err)
     ! (the string width is part of the collective dataset creation: the same on every rank)
-    call write_rows_on_root(group_id, 'label', meta%shape_labels, n_shapes)
+    if (allocated(meta%shape_labels)) then
+      call write_rows_on_root(group_id, 'label', meta%shape_labels, n_shapes)
+    else
+      call write_rows_on_root(group_id, 'label', [character(len=1) ::], n_shapes)
+    end if
     call h5u_close_group(group_id)
     call h5u_create_group(file_id, 'deck', group_id, err)
-    call write_rows_on_root(group_id, 'effective', meta%deck_lines, n_lines)
+    if (allocated(meta%deck_lines)) then
+      call write_rows_on_root(group_id, 'effective', meta%deck_lines, n_lines)
+    else
+      call write_rows_on_root(group_id, 'effective', [character(len=1) ::], n_lines)
+    end if
     call h5u_close_group(group_id)
 
     call h5u_create_group(file_id, 'bodies', group_id, err)
@@ -173,7 +181,7 @@ contains
     subroutine write_rows_on_root(group_id, name, lines, n_rows)
       integer(hid_t), intent(in) :: group_id
       character(len=*), intent(in) :: name
-      character(len=*), allocatable, intent(in) :: lines(:)
+      character(len=*), intent(in) :: lines(:)
       integer(i8), intent(in) :: n_rows
       character(len=:), allocatable :: narrow(:)
       if (n_rows > 0) then
@@ -274,7 +282,11 @@ contains
     call read_long_strings(group_id, 'label', shape_label_length, meta%shape_labels, err)
     call h5u_close_group(group_id)
     call h5u_open_group(file_id, 'deck', group_id, err)
-    call read_long_strings(group_id, 'effective', deck_line_length, meta%deck_lines, err)
+    block
+      character(len=deck_line_length), allocatable :: lines(:)
+      call read_long_strings(group_id, 'effective', deck_line_length, lines, err)
+      meta%deck_lines = compact(lines)
+    end block
     call h5u_close_group(group_id)
     if (err%failed()) return
     if (size(meta%shape_labels) /= size(meta%shape_digests)) then
