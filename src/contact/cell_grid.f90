@@ -66,6 +66,8 @@ module cell_grid
   type :: cell_lists_t
     private
     type(cell_t), allocatable :: cells(:)
+    integer(i8), allocatable :: slot_key(:, :)
+    logical, allocatable :: slot_used(:)
   end type cell_lists_t
 
 contains
@@ -109,7 +111,7 @@ contains
     self%table_size = 0
   end subroutine cells_free
 
-  !> Copies of a grid without its box lists (a cross-rank window saves its loop at every
+  !> Copies of a grid without its box table (a cross-rank window saves its loop at every
   !> window's start and restores it only when the window is run again): the intrinsic copy
   !> of a grid allocates every box's list (a million-slot table for 13,500 spheres: 80 ms a
   !> copy, most of a 27,000-sphere gas on two ranks), and gfortran's copy of a type holding
@@ -123,28 +125,41 @@ contains
     class(cell_grid_t), intent(inout) :: self
     type(cell_lists_t), intent(inout) :: lists
     if (allocated(lists%cells)) deallocate (lists%cells)
+    if (allocated(lists%slot_key)) deallocate (lists%slot_key)
+    if (allocated(lists%slot_used)) deallocate (lists%slot_used)
     if (allocated(self%cells)) call move_alloc(self%cells, lists%cells)
+    if (allocated(self%slot_key)) call move_alloc(self%slot_key, lists%slot_key)
+    if (allocated(self%slot_used)) call move_alloc(self%slot_used, lists%slot_used)
   end subroutine cells_set_aside
 
   subroutine cells_put_back(self, lists)
     class(cell_grid_t), intent(inout) :: self
     type(cell_lists_t), intent(inout) :: lists
     if (allocated(self%cells)) deallocate (self%cells)
+    if (allocated(self%slot_key)) deallocate (self%slot_key)
+    if (allocated(self%slot_used)) deallocate (self%slot_used)
     if (allocated(lists%cells)) call move_alloc(lists%cells, self%cells)
+    if (allocated(lists%slot_key)) call move_alloc(lists%slot_key, self%slot_key)
+    if (allocated(lists%slot_used)) call move_alloc(lists%slot_used, self%slot_used)
   end subroutine cells_put_back
 
-  !> The box lists made again from the bodies' box ranges (placed, large, lo, hi), every
-  !> other component as it is; the lists' own allocations are reused where there are some.
+  !> The box table (keys, slots in use, lists) made again from the bodies' box ranges
+  !> (placed, large, lo, hi) at the table size the grid has, every other component as it
+  !> is; the table's own allocations are reused where they fit.
   subroutine cells_rebuild_lists(self)
     class(cell_grid_t), intent(inout) :: self
     integer :: i, s
     integer(i8) :: a, b, c
-    if (.not. allocated(self%slot_used)) return
-    self%table_size = size(self%slot_used)
+    if (.not. allocated(self%placed)) return
+    ! (the table of the copy's size, in this grid's own arrays where they fit)
     if (allocated(self%cells)) then
       if (size(self%cells) /= self%table_size) deallocate (self%cells)
     end if
+    if (allocated(self%slot_key)) then
+      if (size(self%slot_key, 2) /= self%table_size) deallocate (self%slot_key, self%slot_used)
+    end if
     if (.not. allocated(self%cells)) allocate (self%cells(self%table_size))
+    if (.not. allocated(self%slot_key)) allocate (self%slot_key(3, self%table_size), self%slot_used(self%table_size))
     do s = 1, self%table_size
       self%cells(s)%n = 0
     end do

@@ -217,14 +217,24 @@ contains
   end function flight_anchor_words
 
   !> words(:, k): the flight record of body k = 1..n (anchor_words rows), bit for bit.
-  subroutine flight_pack_anchors(self, n, words)
+  !> rows, when present: only those bodies' records are filled (the others zero), so that a
+  !> few bodies' records cost what they are (a light window start's changed ghosts).
+  subroutine flight_pack_anchors(self, n, words, rows)
     class(free_flight_t), intent(in) :: self
     integer, intent(in) :: n
     integer(i8), allocatable, intent(out) :: words(:, :)
+    integer, intent(in), optional :: rows(:)
     integer(i8), allocatable :: mold(:)
-    integer :: k, w
+    integer :: k, w, m, n_rows
     allocate (words(self%anchor_words(), n), mold(0))
-    do k = 1, n
+    n_rows = n
+    if (present(rows)) then
+      words = 0
+      n_rows = size(rows)
+    end if
+    do m = 1, n_rows
+      k = m
+      if (present(rows)) k = rows(m)
       words(1, k) = merge(1_i8, 0_i8, self%loaded(k))
       words(2:4, k) = transfer(self%accel(:, k), mold)
       words(5, k) = 0

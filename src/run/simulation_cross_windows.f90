@@ -406,11 +406,12 @@ contains
       call self%propagator%evaluate(self%bodies, i, self%time, self%deck%run%gravity)
       rows = [rows, i]
     end do
-    call self%propagator%pack_anchors(n0, words)
+    call self%propagator%pack_anchors(n0, words, rows)
     w = size(words, 1)
     allocate (extra(w + 1, n0))
-    extra(1:w, :) = words
-    extra(w + 1, :) = self%events%version(1:n0)
+    ! (only the rows sent are read)
+    extra(1:w, rows) = words(:, rows)
+    extra(w + 1, rows) = self%events%version(rows)
     call pack_bodies(self%bodies, rows, part, extra)
     neighbours = self%dom%neighbours()
     allocate (counts(0:par%n_ranks - 1), send(0))
