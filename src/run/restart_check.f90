@@ -162,20 +162,27 @@ contains
     character(len=*), intent(in) :: path
     type(deck_change_t), intent(out) :: changes
     type(error_t), intent(inout) :: err
-    character(len=line_length), allocatable :: old_keys(:), old_values(:), new_keys(:), new_values(:), &
-                                               old_shown(:), new_shown(:)
+    character(len=:), allocatable :: old_keys(:), old_values(:), new_keys(:), new_values(:), &
+                                     old_shown(:), new_shown(:)
     character(len=:), allocatable :: refused
     character(len=line_length), allocatable :: notes(:)
-    integer :: i, j, n_notes, n_refused
+    integer :: i, j, k, n_notes, n_refused
+    ! (a deck of 10^5 bodies has 2 million entries: they are as wide as the decks' lines, not
+    ! line_length, the notes grow as they come, and an entry is looked for first where the
+    ! last one found leads, both decks being written in the same order: linear, where a
+    ! search of every entry among all was quadratic, hours for 27,000 bodies)
     call split_entries(old, old_keys, old_values, old_shown)
     call split_entries(new, new_keys, new_values, new_shown)
-    allocate (notes(size(new_keys) + size(old_keys)))
+    allocate (notes(16))
     n_notes = 0
     n_refused = 0
     refused = ''
+    k = 0
     do i = 1, size(new_keys)
-      j = name_index(old_keys, new_keys(i))
+      j = find_from(old_keys, new_keys(i), k + 1)
+      if (j /= 0) k = j
       if (j == 0) then
+        call grow_notes()
         n_notes = n_notes + 1
         notes(n_notes) = trim(new_shown(i))//' = '//trim(new_values(i))// &
                          ' is not recorded in the checkpoint (written by an older ricochet): taken from the deck'
@@ -186,11 +193,13 @@ contains
       select case (change_class(new_keys(i)))
       case (class_allowed)
         changes%n_allowed = changes%n_allowed + 1
+        call grow_notes()
         n_notes = n_notes + 1
         notes(n_notes) = trim(new_shown(i))//' changed from '//trim(old_values(j))//' to '// &
                          trim(new_values(i))//' (allowed)'
       case (class_ignored)
         changes%n_ignored = changes%n_ignored + 1
+        call grow_notes()
         n_notes = n_notes + 1
         notes(n_notes) = trim(new_shown(i))//' changed from '//trim(old_values(j))//' to '// &
                          trim(new_values(i))//': ignored, the state of the bodies comes from the checkpoint'
@@ -199,8 +208,13 @@ contains
         refused = refused//'; '//trim(new_shown(i))//' '//trim(old_values(j))//' -> '//trim(new_values(i))
       end select
     end do
+    i = 0
     do j = 1, size(old_keys)
-      if (name_index(new_keys, old_keys(j)) /= 0) cycle
+      k = find_from(new_keys, old_keys(j), i + 1)
+      if (k /= 0) then
+        i = k
+        cycle
+      end if
       if (change_class(old_keys(j)) == class_refused) then
         n_refused = n_refused + 1
         refused = refused//'; '//trim(old_shown(j))//' '//trim(old_values(j))//' -> (not in this deck)'
@@ -214,7 +228,30 @@ contains
                    'wall_limit and &output variables may change (docs/output.md); start a new run to change '// &
                    merge('these', 'this ', n_refused > 1))
     end if
+  contains
+    subroutine grow_notes()
+      character(len=line_length), allocatable :: grown(:)
+      if (n_notes < size(notes)) return
+      allocate (grown(2*size(notes)))
+      grown(1:n_notes) = notes(1:n_notes)
+      call move_alloc(grown, notes)
+    end subroutine grow_notes
   end subroutine compare_decks
+
+  !> Where name is in names: at hint if it is there (the common case of two decks written
+  !> in the same order), else the first place it is (0: nowhere).
+  pure integer function find_from(names, name, hint) result(found)
+    character(len=*), intent(in) :: names(:), name
+    integer, intent(in) :: hint
+    found = 0
+    if (hint >= 1 .and. hint <= size(names)) then
+      if (names(hint) == name) then
+        found = hint
+        return
+      end if
+    end if
+    found = name_index(names, name)
+  end function find_from
 
   !> How a change of a variable (key 'group|variable') is taken on restart.
   pure integer function change_class(key) result(class)
@@ -249,10 +286,14 @@ contains
   !> and how each is shown to the user ("&body #2 'crate' size").
   subroutine split_entries(lines, keys, values, shown)
     character(len=*), intent(in) :: lines(:)
-    character(len=line_length), allocatable, intent(out) :: keys(:), values(:), shown(:)
+    character(len=:), allocatable, intent(out) :: keys(:), values(:), shown(:)
     character(len=line_length) :: group, label
-    integer :: i, n, eq, k
-    allocate (keys(size(lines)), values(size(lines)), shown(size(lines)))
+    integer :: i, n, eq, k, width
+    ! (a key is a group header, '|' and a variable; shown, a header, a name and a variable)
+    width = len(lines)
+    allocate (character(len=2*width + 1) :: keys(size(lines)))
+    allocate (character(len=width) :: values(size(lines)))
+    allocate (character(len=3*width + 2) :: shown(size(lines)))
     n = 0
     group = ''
     label = ''
