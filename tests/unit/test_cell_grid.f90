@@ -1,11 +1,16 @@
 !> cell_grid (the local event loop's broad phase): regions found by overlap, large regions
 !> kept out of the boxes, and box coordinates past 2^31 (a 1e4 m body in 2e-6 m boxes, the
 !> size ratio 1e10 of check_stress.py `scales`): there the default-kind floor() overflowed,
-!> the 1e4 m body was listed nowhere and a 1e-6 m sphere fell through it.
+!> the 1e4 m body was listed nowhere and a 1e-6 m sphere fell through it. Then the copy a
+!> cross-rank window saves and restores (event_loop copy_loop): a grid copied without its
+!> box table (set_aside, put_back), changed further (moves, removals, a rehash), restored
+!> from the copy and its table made again (rebuild_lists) answers every query as a grid
+!> built afresh with the saved regions does, before and after more placements.
 program test_cell_grid
   use kinds, only: dp, i8
   use error_status, only: error_t
-  use cell_grid, only: cell_grid_t
+  use cell_grid, only: cell_grid_t, cell_lists_t
+  use random_stream, only: random_stream_t
   use assertions, only: check, test_finish
   implicit none
   type(cell_grid_t) :: grid
@@ -56,5 +61,91 @@ program test_cell_grid
   call grid%place(4, [2.0_dp**61*h, 0.0_dp, 0.0_dp], [2.0_dp**61*h + h, h, h], err)
   call check(err%failed(), 'a region 2^61 boxes out is refused')
   call grid%free()
+  call restore_without_table()
   call test_finish()
+
+contains
+
+  subroutine restore_without_table()
+    integer, parameter :: n = 400
+    type(cell_grid_t) :: live, saved, fresh
+    type(cell_lists_t) :: live_lists, saved_lists
+    type(error_t) :: err
+    type(random_stream_t) :: rng
+    real(dp) :: lower(3, n), upper(3, n), c(3)
+    logical :: placed(n)
+    integer, allocatable :: a(:), b(:)
+    integer :: i, k, n_a, n_b, bad
+    call rng%init(7)
+    call live%init(1.0_dp, n, err, max_span=4)
+    placed = .false.
+    do i = 1, n
+      if (mod(i, 7) == 0) cycle          ! some never placed
+      c = [rng%uniform(), rng%uniform(), rng%uniform()]*12.0_dp
+      lower(:, i) = c - 0.3_dp - rng%uniform()
+      upper(:, i) = c + 0.3_dp + rng%uniform()
+      if (i == 5) upper(:, i) = lower(:, i) + 9.0_dp     ! one large region
+      call live%place(i, lower(:, i), upper(:, i), err)
+      placed(i) = .true.
+    end do
+    ! the save: the holder copied with both tables set aside
+    call live%set_aside(live_lists)
+    call saved%set_aside(saved_lists)
+    saved = live
+    call live%put_back(live_lists)
+    call saved%put_back(saved_lists)
+    call check(.not. allocated(saved%slot_key), 'the saved copy holds no box table')
+    ! the live grid goes on: moves far away (new boxes, a rehash) and removals
+    do i = 1, n, 3
+      if (.not. placed(i)) cycle
+      c = [rng%uniform(), rng%uniform(), rng%uniform()]*40.0_dp + 50.0_dp
+      call live%place(i, c - 0.5_dp, c + 0.5_dp, err)
+    end do
+    do i = 2, n, 11
+      if (placed(i)) call live%unplace(i)
+    end do
+    ! the restore, as copy_loop does it
+    call saved%set_aside(saved_lists)
+    call live%set_aside(live_lists)
+    live = saved
+    call saved%put_back(saved_lists)
+    call live%put_back(live_lists)
+    call live%rebuild_lists()
+    ! a grid built afresh with the saved regions
+    call fresh%init(1.0_dp, n, err, max_span=4)
+    do i = 1, n
+      if (placed(i)) call fresh%place(i, lower(:, i), upper(:, i), err)
+    end do
+    call check(.not. err%failed(), 'grids built')
+    bad = 0
+    do k = 1, 2
+      do i = 1, n
+        if (.not. placed(i)) cycle
+        call live%query(i, a, n_a, n)
+        call fresh%query(i, b, n_b, n)
+        if (n_a /= n_b) then
+          bad = bad + 1
+        else if (any(a(1:n_a) /= b(1:n_b))) then
+          bad = bad + 1
+        end if
+      end do
+      if (k == 2) exit
+      ! more placements on both: the rebuilt table takes inserts into its boxes in use
+      do i = 1, n, 5
+        if (.not. placed(i)) cycle
+        c = 0.5_dp*(lower(:, i) + upper(:, i)) + 0.7_dp
+        call live%place(i, c - 0.4_dp, c + 0.4_dp, err)
+        call fresh%place(i, c - 0.4_dp, c + 0.4_dp, err)
+      end do
+    end do
+    call check(bad == 0, 'a grid restored from a copy without its table answers as one built afresh ('// &
+               'queries differing: '//trim(itoa(bad))//')')
+  end subroutine restore_without_table
+
+  function itoa(i) result(text)
+    integer, intent(in) :: i
+    character(len=16) :: text
+    write (text, '(i0)') i
+  end function itoa
+
 end program test_cell_grid
