@@ -5,7 +5,7 @@ gravity, rms speed 1 m/s) in a closed box of six static walls, the sites of a ji
 lattice taken at random (seeded). For each body count and rank count: the whole process's
 wall time, the run's (summary) with its start-up (reading the deck, start-up checks, the
 loop's set-up) and what follows it (the windows and the final checkpoint), the windows,
-how many were run again to an earlier time and how many ended at cross-rank impacts, the
+how many were run again to an earlier time and how many ended in a cross phase, the
 ghosts sent back, the slowest rank's wall in window starts and in repeated runs, and
 whether the final bodies are bit for bit those of one rank (checkpoint_final.h5, every
 body dataset).
@@ -70,7 +70,7 @@ def run(exe, deck, ranks, out):
     row["run"] = float(m.group(1)) if m else float("nan")
     m = re.search(r"start-up\s+([0-9.E+-]+) s", text)
     row["startup"] = float(m.group(1)) if m else float("nan")
-    m = re.search(r"cross-rank windows\s+(\d+) \((\d+) run again.*?, (\d+) of them ending at cross-rank impacts, "
+    m = re.search(r"cross-rank windows\s+(\d+) \((\d+) run again.*?, (\d+) of them ending in a cross phase \([^)]*\), "
                   r"(\d+) ghosts sent back", text)
     row["windows"] = tuple(int(x) for x in m.groups()) if m else None
     m = re.search(r"window costs\s+([0-9.E+-]+) s starting windows.*?, ([0-9.E+-]+) s in runs repeated", text)
@@ -100,7 +100,7 @@ def main():
              f"{time.strftime('%Y-%m-%d')}: radius 0.05 m, 5% by volume, e = 1, no gravity, t_end = {args.t_end} s, "
              "one run each.", "",
              "| bodies | ranks | process [s] | run [s] | start-up [s] | run after start-up [s] | events | windows | "
-             "run again | at cross-rank impacts | ghosts sent back | window starts [s] | repeated runs [s] | "
+             "run again | ending in a cross phase | ghosts sent back | window starts [s] | repeated runs [s] | "
              "final bodies = 1 rank |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for n in args.n:

@@ -181,6 +181,7 @@ module event_loop
     procedure :: start_cross_window => loop_start_cross_window
     procedure :: close_paths => loop_close_paths
     procedure :: queued_cross_time => loop_queued_cross_time
+    procedure :: queued_halo_time => loop_queued_halo_time
   end type event_loop_t
 
 contains
@@ -638,6 +639,14 @@ contains
     type(event_loop_t), intent(in) :: self
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: i
+    halo_left = halo_left_at(self, bodies%x(:, i), i)
+  end function halo_left
+
+  !> halo_left for owned body i were its centre at x [m].
+  pure logical function halo_left_at(self, x, i)
+    type(event_loop_t), intent(in) :: self
+    real(dp), intent(in) :: x(3)
+    integer, intent(in) :: i
     integer :: sides, now, k
     sides = 0
     if (allocated(self%zone_sides)) then
@@ -645,13 +654,12 @@ contains
     end if
     now = 0
     do k = 1, 3
-      if (bodies%x(k, i) < self%watch_lo(k)) now = ibset(now, 2*k - 2)
-      if (bodies%x(k, i) > self%watch_hi(k)) now = ibset(now, 2*k - 1)
+      if (x(k) < self%watch_lo(k)) now = ibset(now, 2*k - 2)
+      if (x(k) > self%watch_hi(k)) now = ibset(now, 2*k - 1)
     end do
-    halo_left = iand(now, not(sides)) /= 0
-    if (sides /= 0) halo_left = halo_left .or. any(bodies%x(:, i) < self%brick_lo) .or. &
-                                any(bodies%x(:, i) > self%brick_hi)
-  end function halo_left
+    halo_left_at = iand(now, not(sides)) /= 0
+    if (sides /= 0) halo_left_at = halo_left_at .or. any(x < self%brick_lo) .or. any(x > self%brick_hi)
+  end function halo_left_at
 
   !> The run stops at t for the impact of rows a and b, which needs the moving ghosts among
   !> rows(:) (STOP_CROSS).
@@ -951,6 +959,32 @@ contains
       end do
     end do
   end function loop_queued_cross_time
+
+  !> The earliest box crossing now in the queue of an owned moving body that, on the body's
+  !> present trajectory, will find it outside what the halo covers (halo_left: a STOP_HALO
+  !> then) (far_future if none) [s]. Like queued_cross_time, a time every rank's
+  !> speculative run can end just before, so that a window ending at a halo stop needs no
+  !> repetition when nothing comes first. A prediction only: a body whose trajectory
+  !> changes before its crossing makes it void (the window then ends there with nothing to
+  !> do), and a halo stop at a placement by an impact is found as before (by the run).
+  !> The centre at the crossing is evaluated as flight%evaluate evaluates it.
+  real(dp) function loop_queued_halo_time(self, bodies, flight) result(t)
+    class(event_loop_t), intent(in) :: self
+    type(bodies_t), intent(in) :: bodies
+    type(free_flight_t), intent(in) :: flight
+    integer :: i
+    real(dp) :: t_c, tau, a(3), x(3)
+    t = far_future
+    do i = 1, self%n_owned
+      if (bodies%fixed(i) .or. .not. flight%is_anchored(i)) cycle
+      t_c = self%body_queue%time_of(i)
+      if (t_c >= t) cycle
+      tau = t_c - flight%t0(i)
+      a = flight%acceleration(i, self%gravity)
+      x = flight%x0(:, i) + flight%v0(:, i)*tau + (0.5_dp*tau*tau)*a
+      if (halo_left_at(self, x, i)) t = t_c
+    end do
+  end function loop_queued_halo_time
 
   !> The swept boxes (path_lo, path_hi) of the owned rows that changed, closed at t (the end
   !> of the run): their last segment added.

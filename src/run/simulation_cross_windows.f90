@@ -106,9 +106,13 @@ contains
       ! the window's start, to come back to (the event log's rows are only appended: their count)
       call save_state()
       events_before = self%events%stats%impacts
-      ! the earliest cross-rank impact known now: every rank's run ends just before it, and
-      ! if none meets anything earlier the cross phase follows with no repetition
-      t_known = par%min(self%events%queued_cross_time(self%bodies))
+      ! the earliest cross-rank impact or halo stop known now (queued impacts of pairs with a
+      ! ghost, queued box crossings that will leave the halo's coverage): every rank's run
+      ! ends just before it, and if none meets anything earlier the cross phase follows (the
+      ! events at that time, the crossing's halo stop making the next start a full one)
+      ! with no repetition
+      t_known = par%min(min(self%events%queued_cross_time(self%bodies), &
+                            self%events%queued_halo_time(self%bodies, self%propagator)))
       to_known = t_known <= t_output
       self%events%cross_mode = CROSS_SPECULATE
       call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, min(t_known, t_output), &

@@ -211,7 +211,8 @@ contains
         ' / '//str(load(3, 3), '(es9.3)')//' s'
       if (self%cross_windows) then
         write (*, '(a)') '  cross-rank windows   '//str(cross_count(1))//' ('//str(cross_count(2))//' run again to '// &
-          'an earlier time, '//str(cross_count(3))//' of them ending at cross-rank impacts, '//str(cross_count(4))// &
+          'an earlier time, '//str(cross_count(3))//' of them ending in a cross phase (at a cross-rank impact '// &
+          'or a halo stop known ahead), '//str(cross_count(4))// &
           ' ghosts sent back to their owners, '//str(cross_count(5))//' started light: only changed ghosts sent); '// &
           str(migrated)//' bodies changed rank, '//str(messages)// &
           ' messages, '//str(bytes)//' bytes'

@@ -72,7 +72,7 @@ def run(ranks, path, out, *extra, expect_ok=True):
 def cross_counts(text):
     """(windows, repeated, cross phases, ghosts sent back, light starts, bodies that changed rank)
     of the summary."""
-    m = re.search(r"cross-rank windows\s+(\d+) \((\d+) run again.*?, (\d+) of them ending at cross-rank impacts, "
+    m = re.search(r"cross-rank windows\s+(\d+) \((\d+) run again.*?, (\d+) of them ending in a cross phase \([^)]*\), "
                   r"(\d+) ghosts sent back to their owners, (\d+) started light[^)]*\); (\d+) bodies changed rank", text)
     return tuple(int(x) for x in m.groups()) if m else None
 
