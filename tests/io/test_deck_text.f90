@@ -34,8 +34,12 @@ program test_deck_text
   ! random bit patterns over the whole range, uniform doubles, short decimals, ties
   do k = 1, 20000
     bits = int(rng%uniform()*2.0_dp**31, i8)*2_i8**32 + int(rng%uniform()*2.0_dp**32, i8)
-    x = transfer(bits, 1.0_dp)
-    call compare(x)
+    ! (NaN and Inf patterns skipped as bits: comparing a signalling NaN traps in the Debug
+    ! build, and real_text writes them as g0 anyway)
+    if (iand(shiftr(bits, 52), 2047_i8) /= 2047_i8) then
+      x = transfer(bits, 1.0_dp)
+      call compare(x)
+    end if
     call compare(rng%symmetric(3.0_dp))
     call compare(real(int(rng%uniform()*1.0e4_dp), dp)/10.0_dp**int(rng%uniform()*8.0_dp))
     call compare(real(int(rng%uniform()*1.0e3_dp) + 1, dp)*2.0_dp**(-int(rng%uniform()*30.0_dp)))
@@ -43,7 +47,7 @@ program test_deck_text
   ! decimal ties (0.125, 0.0625, ...: 5 then zeros after some digit), powers of two and
   ! their neighbours, carries (9.5, 0.9999999999999999), the ends of the range
   do e = -1074, 1023
-    x = 2.0_dp**e
+    x = scale(1.0_dp, e)
     call compare(x)
     call compare(nearest(x, 1.0_dp))
     if (e > -1074) call compare(nearest(x, -1.0_dp))
@@ -77,7 +81,6 @@ contains
     character(len=:), allocatable :: fast, reference
     real(dp) :: back
     integer :: ios
-    if (value /= value .or. abs(value) > huge(1.0_dp)) return
     fast = real_text(value)
     reference = real_text(value, by_io=.true.)
     if (fast /= reference) then
