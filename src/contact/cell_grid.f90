@@ -56,13 +56,11 @@ module cell_grid
     procedure :: grow_bodies => cells_grow_bodies
     procedure :: remap_bodies => cells_remap_bodies
     procedure :: overlaps => cells_overlaps
-    procedure :: set_aside => cells_set_aside
-    procedure :: put_back => cells_put_back
+    procedure :: swap_table => cells_swap_table
     procedure :: rebuild_lists => cells_rebuild_lists
   end type cell_grid_t
 
-  !> A grid's box lists held apart from it (cell_grid_t set_aside, put_back): see
-  !> rebuild_lists.
+  !> A grid's box table held apart from it (cell_grid_t swap_table): see rebuild_lists.
   type :: cell_lists_t
     private
     type(cell_t), allocatable :: cells(:)
@@ -116,32 +114,26 @@ contains
   !> of a grid allocates every box's list (a million-slot table for 13,500 spheres: 80 ms a
   !> copy, most of a 27,000-sphere gas on two ranks), and gfortran's copy of a type holding
   !> one does so even where the grid has a defined assignment. So a holder is copied with
-  !> the lists set aside (set_aside, put_back: the copy then holds none), and a grid whose
+  !> both grids' tables swapped out into holders (swap_table; swapped back after the copy,
+  !> which then holds none of its own but what it had before), and a grid whose
   !> other components were restored from such a copy makes its lists again from its bodies'
   !> box ranges (rebuild_lists). What a grid answers depends only on which bodies each box
   !> lists: a query's result is sorted, so neither the order within a box nor the table's
   !> layout shows.
-  subroutine cells_set_aside(self, lists)
+  subroutine cells_swap_table(self, lists)
     class(cell_grid_t), intent(inout) :: self
     type(cell_lists_t), intent(inout) :: lists
-    if (allocated(lists%cells)) deallocate (lists%cells)
-    if (allocated(lists%slot_key)) deallocate (lists%slot_key)
-    if (allocated(lists%slot_used)) deallocate (lists%slot_used)
-    if (allocated(self%cells)) call move_alloc(self%cells, lists%cells)
-    if (allocated(self%slot_key)) call move_alloc(self%slot_key, lists%slot_key)
-    if (allocated(self%slot_used)) call move_alloc(self%slot_used, lists%slot_used)
-  end subroutine cells_set_aside
-
-  subroutine cells_put_back(self, lists)
-    class(cell_grid_t), intent(inout) :: self
-    type(cell_lists_t), intent(inout) :: lists
-    if (allocated(self%cells)) deallocate (self%cells)
-    if (allocated(self%slot_key)) deallocate (self%slot_key)
-    if (allocated(self%slot_used)) deallocate (self%slot_used)
-    if (allocated(lists%cells)) call move_alloc(lists%cells, self%cells)
-    if (allocated(lists%slot_key)) call move_alloc(lists%slot_key, self%slot_key)
-    if (allocated(lists%slot_used)) call move_alloc(lists%slot_used, self%slot_used)
-  end subroutine cells_put_back
+    type(cell_lists_t) :: held
+    call move_alloc(lists%cells, held%cells)
+    call move_alloc(lists%slot_key, held%slot_key)
+    call move_alloc(lists%slot_used, held%slot_used)
+    call move_alloc(self%cells, lists%cells)
+    call move_alloc(self%slot_key, lists%slot_key)
+    call move_alloc(self%slot_used, lists%slot_used)
+    call move_alloc(held%cells, self%cells)
+    call move_alloc(held%slot_key, self%slot_key)
+    call move_alloc(held%slot_used, self%slot_used)
+  end subroutine cells_swap_table
 
   !> The box table (keys, slots in use, lists) made again from the bodies' box ranges
   !> (placed, large, lo, hi) at the table size the grid has, every other component as it

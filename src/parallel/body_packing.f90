@@ -24,7 +24,7 @@ module body_packing
   implicit none
   private
   public :: PACK_LAYOUT_VERSION, PACK_HEADER_WORDS, BODY_WORDS
-  public :: packed_words, pack_bodies, unpack_bodies, packed_count, pack_for_neighbour, PACKED_WORD_BYTES
+  public :: packed_words, pack_bodies, unpack_bodies, unpack_blocks, packed_count, pack_for_neighbour, PACKED_WORD_BYTES
 
   !> Bytes of one buffer word (the buffers are real(dp)).
   integer, parameter :: PACKED_WORD_BYTES = storage_size(1.0_dp)/8
@@ -89,6 +89,48 @@ contains
       if (n_extra > 0) buffer(o + 32:o + w) = as_reals(extra(:, i))
     end do
   end subroutine pack_bodies
+
+  !> Every buffer of a concatenation of pack_bodies buffers (what an alltoallv of them
+  !> receives) appended to bodies as owned rows, in order; extra(:, k), when present, the
+  !> packed extra integers of the k-th body appended (every buffer with the same extras).
+  !> A tail shorter than a header is ignored.
+  subroutine unpack_blocks(buffer, bodies, err, extra)
+    real(dp), intent(in) :: buffer(:)
+    type(bodies_t), intent(inout) :: bodies
+    type(error_t), intent(inout) :: err
+    integer(i8), allocatable, intent(out), optional :: extra(:, :)
+    integer(i8), allocatable :: got(:, :), grown(:, :)
+    integer :: o, n_words
+    o = 0
+    do while (size(buffer) - o >= PACK_HEADER_WORDS)
+      n_words = int(PACK_HEADER_WORDS + as_int(buffer(o + 2))*as_int(buffer(o + 3)))
+      if (n_words < PACK_HEADER_WORDS .or. o + n_words > size(buffer)) then
+        call err%set(ERR_PARALLEL, 'body buffers: a header at word '//str(o + 1)//' reaches past the '// &
+                     str(size(buffer))//' words received')
+        return
+      end if
+      if (.not. present(extra)) then
+        call unpack_bodies(buffer(o + 1:o + n_words), bodies, .false., err)
+      else
+        call unpack_bodies(buffer(o + 1:o + n_words), bodies, .false., err, extra=got)
+        if (err%ok()) then
+          if (.not. allocated(extra)) then
+            call move_alloc(got, extra)
+          else
+            allocate (grown(size(extra, 1), size(extra, 2) + size(got, 2)))
+            grown(:, 1:size(extra, 2)) = extra
+            grown(:, size(extra, 2) + 1:) = got
+            call move_alloc(grown, extra)
+          end if
+        end if
+      end if
+      if (err%failed()) return
+      o = o + n_words
+    end do
+    if (present(extra)) then
+      if (.not. allocated(extra)) allocate (extra(0, 0))
+    end if
+  end subroutine unpack_blocks
 
   !> The bodies of a buffer appended to bodies as owned rows (before the ghosts, which move
   !> up) or as ghost rows (at the end), in buffer order. first: the row of the first one.

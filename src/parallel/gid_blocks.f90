@@ -11,7 +11,7 @@ module gid_blocks
   use string_utils, only: str
   use parallel_env, only: parallel_t
   use body_state, only: bodies_t
-  use body_packing, only: pack_bodies, unpack_bodies, PACK_HEADER_WORDS
+  use body_packing, only: pack_bodies, unpack_blocks
   implicit none
   private
   public :: gid_block, block_rank_of, gather_gid_blocks
@@ -57,8 +57,8 @@ contains
     type(error_t), intent(inout) :: err
     integer, allocatable :: dest(:), rows(:), counts(:), order(:)
     real(dp), allocatable :: send(:), part(:), recv(:)
-    integer(i8) :: first, last, n8, w8
-    integer :: n, r, k, o, words
+    integer(i8) :: first, last
+    integer :: n, r, k
     n = bodies%n_owned
     allocate (dest(n), counts(0:par%n_ranks - 1))
     do k = 1, n
@@ -80,16 +80,8 @@ contains
     blocks%n_owned = 0
     blocks%n_ghost = 0
     if (err%failed()) return
-    o = 0
-    do while (o < size(recv))
-      if (size(recv) - o < PACK_HEADER_WORDS) exit
-      n8 = transfer(recv(o + 2), 1_i8)
-      w8 = transfer(recv(o + 3), 1_i8)
-      words = int(PACK_HEADER_WORDS + n8*w8)
-      call unpack_bodies(recv(o + 1:o + words), blocks, .false., err)
-      if (err%failed()) return
-      o = o + words
-    end do
+    call unpack_blocks(recv, blocks, err)
+    if (err%failed()) return
     allocate (order(blocks%n_owned))
     call blocks%sort_owned_by_gid(order)
     do k = 1, blocks%n_owned

@@ -794,16 +794,14 @@ contains
         slot = next_slot
       end do
     end do
+    ! placed again whether or not they moved (a dropped pair is made again), then settled as
+    ! the trajectories a cross phase brings (settle_changed: placed already, pairs certified)
     do k = 1, size(list)
       call count_change(self, list(k), t)
       call replace(self, stage, bodies, shapes, flight, list(k), t, err)
       if (err%failed()) return
     end do
-    call certify_pairs_of(self, stage, bodies, shapes, flight, list, t, err)
-    if (err%failed()) return
-    do k = 1, size(list)
-      if (.not. bodies%fixed(list(k))) call schedule_crossing(self, bodies, flight, list(k), t)
-    end do
+    call settle_changed(self, stage, bodies, shapes, flight, list, t, err)
   end subroutine loop_take_ghost_trajectories
 
   !> A cross-rank window starts (after remap_bodies brought the ghosts in): nothing has
@@ -930,11 +928,11 @@ contains
     type(event_loop_t), intent(inout) :: src
     logical, intent(in) :: restoring
     type(cell_lists_t) :: src_lists, dst_lists
-    call src%cells%set_aside(src_lists)
-    call dst%cells%set_aside(dst_lists)
+    call src%cells%swap_table(src_lists)
+    call dst%cells%swap_table(dst_lists)
     dst = src
-    call src%cells%put_back(src_lists)
-    call dst%cells%put_back(dst_lists)
+    call src%cells%swap_table(src_lists)
+    call dst%cells%swap_table(dst_lists)
     if (restoring) call dst%cells%rebuild_lists()
   end subroutine copy_loop
 

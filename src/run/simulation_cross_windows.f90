@@ -34,7 +34,7 @@ submodule (simulation) simulation_cross_windows
   use event_loop, only: CROSS_OFF, CROSS_SPECULATE, CROSS_RERUN, CROSS_PHASE, STOP_CROSS, STOP_HALO
   use event_loop, only: event_stats_t, copy_loop
   use halo_exchange, only: exchange_halo
-  use body_packing, only: pack_bodies, unpack_bodies, PACK_HEADER_WORDS
+  use body_packing, only: pack_bodies, unpack_blocks
   use sorting, only: sort_index_keys, find_key
   implicit none
 
@@ -150,11 +150,9 @@ contains
         clock = par%wtime()
         exclusive = t_cross <= t_late
         t_v = min(t_cross, t_late)
-        self%events%ghost_changed_at = changed_at
         if (.not. (to_known .and. exclusive .and. t_v == t_known)) then
           self%cross_count(2) = self%cross_count(2) + 1
           call restore_state()
-          self%events%ghost_changed_at = changed_at
           self%events%cross_mode = CROSS_RERUN
           self%events%rerun_to = t_v
           call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err, &
@@ -167,6 +165,8 @@ contains
         if (exclusive) then
           ! the cross phase: every event at t_v, those needing ghosts by the lower id's owner
           self%cross_count(3) = self%cross_count(3) + 1
+          ! (the ghosts their owners changed: a group with one is left to the next window)
+          self%events%ghost_changed_at = changed_at
           self%events%cross_mode = CROSS_PHASE
           versions = self%events%version(1:self%bodies%n_owned)
           call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err)
@@ -398,8 +398,7 @@ contains
     integer, allocatable :: rows(:), counts(:), neighbours(:), order(:), taken(:)
     logical, allocatable :: take(:)
     type(bodies_t) :: arrived
-    integer :: n0, ng, i, k, o, r, mid, n_words, w
-    integer(i8) :: n8, w8
+    integer :: n0, ng, i, k, r, mid, w
     n0 = self%bodies%n_owned
     ng = self%bodies%n_ghost
     ! the changed frontier bodies, at the window's start
@@ -436,27 +435,15 @@ contains
     if (ng > 0) keys(1, :) = self%bodies%gid(n0 + 1:n0 + ng)
     call sort_index_keys(keys, order)
     keys = keys(:, order)
-    o = 0
-    do while (o + PACK_HEADER_WORDS <= size(recv))
-      n8 = transfer(recv(o + 2), 1_i8)
-      w8 = transfer(recv(o + 3), 1_i8)
-      n_words = int(PACK_HEADER_WORDS + n8*w8)
-      call arrived%free()
-      call arrived%allocate(int(n8))
-      arrived%n_owned = 0
-      arrived%n_ghost = 0
-      call unpack_bodies(recv(o + 1:o + n_words), arrived, .false., err, extra=got)
-      if (err%failed()) exit
-      do k = 1, arrived%n_owned
-        mid = find_key(keys, ng, [arrived%gid(k)])
-        if (mid == 0) cycle      ! (a neighbour's frontier body this rank does not hold)
-        i = order(mid)
-        call copy_row(arrived, k, self%bodies, n0 + i)
-        call self%propagator%set_record(n0 + i, got(1:w, k))
-        self%ghost_versions(i) = got(w + 1, k)
-        take(i) = .true.
-      end do
-      o = o + n_words
+    call unpack_blocks(recv, arrived, err, got)
+    do k = 1, merge(arrived%n_owned, 0, err%ok())
+      mid = find_key(keys, ng, [arrived%gid(k)])
+      if (mid == 0) cycle      ! (a neighbour's frontier body this rank does not hold)
+      i = order(mid)
+      call copy_row(arrived, k, self%bodies, n0 + i)
+      call self%propagator%set_record(n0 + i, got(1:w, k))
+      self%ghost_versions(i) = got(w + 1, k)
+      take(i) = .true.
     end do
     if (par%any(err%failed())) then
       if (err%ok()) call err%set(ERR_INTERNAL, 'a light window start failed on another rank')
@@ -629,8 +616,7 @@ contains
     integer, allocatable :: counts(:), rows(:)
     logical, allocatable :: updated(:)
     type(bodies_t) :: arrived
-    integer :: n_total, r, i, k, o, n_words, row
-    integer(i8) :: n8, w8
+    integer :: n_total, r, i, k, row
     n_total = self%bodies%n_total()
     call self%propagator%pack_anchors(n_total, words)
     allocate (counts(0:par%n_ranks - 1), send(0))
@@ -651,42 +637,29 @@ contains
     end if
     allocate (updated(self%bodies%n_owned))
     updated = .false.
-    o = 0
-    do while (o + PACK_HEADER_WORDS <= size(recv))
-      n8 = transfer(recv(o + 2), 1_i8)
-      w8 = transfer(recv(o + 3), 1_i8)
-      n_words = int(PACK_HEADER_WORDS + n8*w8)
-      call arrived%free()
-      call arrived%allocate(int(n8))
-      arrived%n_owned = 0
-      arrived%n_ghost = 0
-      call unpack_bodies(recv(o + 1:o + n_words), arrived, .false., err, extra=got)
-      if (err%failed()) exit
-      do k = 1, arrived%n_owned
-        row = 0
-        do i = 1, self%bodies%n_owned
-          if (self%bodies%gid(i) == arrived%gid(k)) then
-            row = i
-            exit
-          end if
-        end do
-        if (row == 0) then
-          call err%set(ERR_INTERNAL, 'cross-rank impact at t = '//str(t)//' s: body '//str(arrived%gid(k))// &
-                       ' is not owned by the rank its new trajectory was sent to')
+    call unpack_blocks(recv, arrived, err, got)
+    do k = 1, merge(arrived%n_owned, 0, err%ok())
+      row = 0
+      do i = 1, self%bodies%n_owned
+        if (self%bodies%gid(i) == arrived%gid(k)) then
+          row = i
           exit
         end if
-        if (updated(row) .or. self%events%version(row) /= versions(row)) then
-          call err%set(ERR_INTERNAL, 'cross-rank impacts at t = '//str(t)//' s: body '//str(arrived%gid(k))// &
-                       ' was changed by two ranks at once (impulse groups spanning ranks at one time are '// &
-                       'not built yet)')
-          exit
-        end if
-        updated(row) = .true.
-        call copy_row(arrived, k, self%bodies, row)
-        call self%propagator%set_record(row, got(:, k))
       end do
-      if (err%failed()) exit
-      o = o + n_words
+      if (row == 0) then
+        call err%set(ERR_INTERNAL, 'cross-rank impact at t = '//str(t)//' s: body '//str(arrived%gid(k))// &
+                     ' is not owned by the rank its new trajectory was sent to')
+        exit
+      end if
+      if (updated(row) .or. self%events%version(row) /= versions(row)) then
+        call err%set(ERR_INTERNAL, 'cross-rank impacts at t = '//str(t)//' s: body '//str(arrived%gid(k))// &
+                     ' was changed by two ranks at once (impulse groups spanning ranks at one time are '// &
+                     'not built yet)')
+        exit
+      end if
+      updated(row) = .true.
+      call copy_row(arrived, k, self%bodies, row)
+      call self%propagator%set_record(row, got(:, k))
     end do
     if (err%ok()) call self%events%take_trajectories(self%collisions, self%bodies, self%shapes, self%propagator, &
                                                      pack([(i, i=1, self%bodies%n_owned)], updated), t, err)

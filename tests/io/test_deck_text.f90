@@ -10,6 +10,7 @@
 !> the effective deck of 10^5 bodies out of every checkpoint's wall time.
 program test_deck_text
   use kinds, only: dp, i8
+  use string_utils, only: str
   use random_stream, only: random_stream_t
   use namelist_source, only: real_text
   use assertions
@@ -58,8 +59,8 @@ program test_deck_text
   call compare(huge(1.0_dp))
   call compare(tiny(1.0_dp))
   call compare(nearest(huge(1.0_dp), -1.0_dp))
-  call check(n_mismatch == 0, 'fast and reference texts equal ('//trim(itoa(n_mismatch))//' differ)')
-  call check(n_bad_read == 0, 'every text reads back bit for bit ('//trim(itoa(n_bad_read))//' do not)')
+  call check(n_mismatch == 0, 'fast and reference texts equal ('//str(n_mismatch)//' differ)')
+  call check(n_bad_read == 0, 'every text reads back bit for bit ('//str(n_bad_read)//' do not)')
   ! cost of each path on jittered positions (most deck reals of a large scene)
   call cpu_time(t0)
   do k = 1, 20000
@@ -94,10 +95,5 @@ contains
     end if
   end subroutine compare
 
-  function itoa(i) result(text)
-    integer, intent(in) :: i
-    character(len=16) :: text
-    write (text, '(i0)') i
-  end function itoa
 
 end program test_deck_text

@@ -3,11 +3,12 @@
 !> size ratio 1e10 of check_stress.py `scales`): there the default-kind floor() overflowed,
 !> the 1e4 m body was listed nowhere and a 1e-6 m sphere fell through it. Then the copy a
 !> cross-rank window saves and restores (event_loop copy_loop): a grid copied without its
-!> box table (set_aside, put_back), changed further (moves, removals, a rehash), restored
+!> box table (swap_table), changed further (moves, removals, a rehash), restored
 !> from the copy and its table made again (rebuild_lists) answers every query as a grid
 !> built afresh with the saved regions does, before and after more placements.
 program test_cell_grid
   use kinds, only: dp, i8
+  use string_utils, only: str
   use error_status, only: error_t
   use cell_grid, only: cell_grid_t, cell_lists_t
   use random_stream, only: random_stream_t
@@ -89,11 +90,11 @@ contains
       placed(i) = .true.
     end do
     ! the save: the holder copied with both tables set aside
-    call live%set_aside(live_lists)
-    call saved%set_aside(saved_lists)
+    call live%swap_table(live_lists)
+    call saved%swap_table(saved_lists)
     saved = live
-    call live%put_back(live_lists)
-    call saved%put_back(saved_lists)
+    call live%swap_table(live_lists)
+    call saved%swap_table(saved_lists)
     call check(.not. allocated(saved%slot_key), 'the saved copy holds no box table')
     ! the live grid goes on: moves far away (new boxes, a rehash) and removals
     do i = 1, n, 3
@@ -105,11 +106,11 @@ contains
       if (placed(i)) call live%unplace(i)
     end do
     ! the restore, as copy_loop does it
-    call saved%set_aside(saved_lists)
-    call live%set_aside(live_lists)
+    call saved%swap_table(saved_lists)
+    call live%swap_table(live_lists)
     live = saved
-    call saved%put_back(saved_lists)
-    call live%put_back(live_lists)
+    call saved%swap_table(saved_lists)
+    call live%swap_table(live_lists)
     call live%rebuild_lists()
     ! a grid built afresh with the saved regions
     call fresh%init(1.0_dp, n, err, max_span=4)
@@ -139,13 +140,7 @@ contains
       end do
     end do
     call check(bad == 0, 'a grid restored from a copy without its table answers as one built afresh ('// &
-               'queries differing: '//trim(itoa(bad))//')')
+               'queries differing: '//str(bad)//')')
   end subroutine restore_without_table
-
-  function itoa(i) result(text)
-    integer, intent(in) :: i
-    character(len=16) :: text
-    write (text, '(i0)') i
-  end function itoa
 
 end program test_cell_grid

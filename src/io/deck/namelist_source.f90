@@ -1041,9 +1041,9 @@ contains
   !> is), candidates of 1 to 17 digits rounded from that string, and each tried with C's
   !> strtod (what a Fortran READ of a real calls: correctly rounded). Rounding a correctly
   !> rounded string again is the direct rounding except when the digits cut off are exactly
-  !> 5000...: that case (and any other doubt) takes the reference path, one write and one
-  !> READ per number of digits (shortest_digits_by_io). Both give the same text
-  !> (tests/unit/test_deck_text checks it on random and edge values).
+  !> 5000...: that case takes the reference test, one write and one READ per number of
+  !> digits (shortest_digits). Both give the same text (tests/io/test_deck_text checks it on
+  !> random and edge values).
   function real_text(x, by_io) result(text)
     real(dp), intent(in) :: x
     !> the reference path only (the unit test's comparison)
@@ -1051,7 +1051,7 @@ contains
     character(len=:), allocatable :: text
     character(len=20) :: digits
     integer :: n_digits, exponent
-    logical :: negative
+    logical :: io
 
     if (.not. ieee_is_finite(x)) then
       block
@@ -1066,94 +1066,97 @@ contains
       text = trim(adjustl(text))
       return
     end if
-    negative = x < 0.0_dp
-    if (present(by_io)) then
-      if (by_io) then
-        call shortest_digits_by_io(abs(x), digits, n_digits, exponent)
-        text = decimal_text(digits(1:n_digits), exponent)
-        if (negative) text = '-'//text
-        return
-      end if
-    end if
-    call shortest_digits(abs(x), digits, n_digits, exponent)
+    io = .false.
+    if (present(by_io)) io = by_io
+    call shortest_digits(abs(x), io, digits, n_digits, exponent)
     text = decimal_text(digits(1:n_digits), exponent)
-    if (negative) text = '-'//text
+    if (x < 0.0_dp) text = '-'//text
   end function real_text
 
   !> The fewest significant digits (digits(1:n), first nonzero, last nonzero unless n = 1)
   !> and the decimal exponent of the first such that digits * 10^(exponent - n + 1) reads
-  !> back as x (x > 0, finite). Fast path of real_text; see there.
-  subroutine shortest_digits(x, digits, n, exponent)
+  !> back as x (x > 0, finite); see real_text. One search (1 to 3 digits, then a bisection
+  !> of 4 to 17: round-tripping is monotone in the number of digits but at some powers of
+  !> two, whose rounding interval is uneven, so both paths must search alike) over either
+  !> test of a candidate: by_io, the reference (a write of p digits and a READ of it), else
+  !> the fast one (p digits rounded from one 21-digit write, tried with strtod), which
+  !> hands the search to the reference where its rounding is in doubt.
+  subroutine shortest_digits(x, by_io, digits, n, exponent)
     real(dp), intent(in) :: x
+    logical, intent(in) :: by_io
     character(len=20), intent(out) :: digits
     integer, intent(out) :: n, exponent
     integer, parameter :: long = 21
     character(len=48) :: buffer
+    character(len=24) :: fmt
     character(len=long) :: exact
     character(len=long + 1) :: rounded
-    integer :: e_pos, k, e_p, first, low, high, middle
-    logical :: ok, doubt
-    write (buffer, '(es48.20e4)') x
-    buffer = adjustl(buffer)
-    e_pos = scan(buffer, 'Ee')
-    exact = buffer(1:1)//buffer(3:e_pos - 1)
-    exponent = 0
-    do k = e_pos + 2, len_trim(buffer)
-      exponent = 10*exponent + (iachar(buffer(k:k)) - iachar('0'))
-    end do
-    if (buffer(e_pos + 1:e_pos + 1) == '-') exponent = -exponent
+    integer :: e_exact, e_p, first, low, high, middle
+    logical :: io, doubt, ok
+    io = by_io
+    if (.not. io) then
+      write (buffer, '(es48.20e4)') x
+      call split_mantissa(buffer, exact, e_exact)
+    end if
     ! Near the top of the range fewer digits could round up past huge() and overflow.
     first = 1
     if (x > 1.0e307_dp) first = 17
-    ! the reference path's search (1 to 3 digits, then a bisection of 4 to 17), so that both
-    ! give the same digits even where round-tripping is not monotone in the number of
-    ! digits (some powers of two, whose rounding interval is uneven)
-    doubt = .false.
-    n = 0
-    do low = first, 3
-      if (try(low)) then
-        n = low
-        exit
-      end if
-    end do
-    if (n == 0) then
-      low = max(first, 4)
-      high = 17
-      do while (low < high)
-        middle = (low + high)/2
-        if (try(middle)) then
-          high = middle
-        else
-          low = middle + 1
+    do
+      doubt = .false.
+      n = 0
+      do low = first, 3
+        if (try(low)) then
+          n = low
+          exit
         end if
       end do
-      n = low
-    end if
-    if (.not. doubt) ok = try(n)
-    if (doubt) then
-      call shortest_digits_by_io(x, digits, n, exponent)
-      return
-    end if
+      if (n == 0) then
+        low = max(first, 4)
+        high = 17
+        do while (low < high)
+          middle = (low + high)/2
+          if (try(middle)) then
+            high = middle
+          else
+            low = middle + 1
+          end if
+        end do
+        n = low
+      end if
+      if (.not. doubt) ok = try(n)      ! (rounded, e_p: the digits found)
+      if (.not. doubt) exit
+      io = .true.
+    end do
     do while (n > 1 .and. rounded(n:n) == '0')
       n = n - 1
     end do
     digits = rounded(1:n)
     exponent = e_p
   contains
-    !> rounded(1:p), e_p: exact rounded to p digits; whether that reads back as x (doubt:
-    !> the digits cut off are exactly 5000..., which the 21-digit string may itself have
-    !> been rounded to, so its rounding to p digits is not known here)
+    !> rounded(1:p), e_p: x to p significant digits; whether they read back as x. The fast
+    !> test is in doubt (doubt set, false returned) where the digits cut off are exactly
+    !> 5000...: the 21-digit string may itself have been rounded to that half, so its
+    !> rounding to p digits is not known.
     logical function try(p)
       integer, intent(in) :: p
-      integer :: k
+      integer :: k, ios
+      real(dp) :: back
       try = .false.
+      if (io) then
+        write (fmt, '(a,i0,a)') '(es48.', p - 1, 'e4)'
+        write (buffer, fmt) x
+        read (buffer, *, iostat=ios) back
+        call split_mantissa(buffer, rounded, e_p)
+        try = ios == 0 .and. back == x
+        return
+      end if
       if (doubt) return
       if (exact(p + 1:p + 1) == '5' .and. verify(exact(p + 2:long), '0') == 0) then
         doubt = .true.
         return
       end if
       rounded = '0'//exact(1:p)
-      e_p = exponent
+      e_p = e_exact
       if (exact(p + 1:p + 1) >= '5') then
         k = p + 1
         do
@@ -1167,7 +1170,7 @@ contains
         end do
       end if
       if (rounded(1:1) == '1') then
-        e_p = exponent + 1
+        e_p = e_exact + 1
         rounded = rounded(1:p)
       else
         rounded = rounded(2:p + 1)
@@ -1175,6 +1178,24 @@ contains
       try = reads_back(rounded(1:p), e_p, x)
     end function try
   end subroutine shortest_digits
+
+  !> The digits (no dot) and the exponent of an ES-edited positive number ('1.25E+0003'),
+  !> read without formatted I/O.
+  subroutine split_mantissa(edited, mantissa, exponent)
+    character(len=*), intent(in) :: edited
+    character(len=*), intent(out) :: mantissa
+    integer, intent(out) :: exponent
+    character(len=len(edited)) :: text
+    integer :: e_pos, k
+    text = adjustl(edited)
+    e_pos = scan(text, 'Ee')
+    mantissa = text(1:1)//text(3:e_pos - 1)
+    exponent = 0
+    do k = e_pos + 2, len_trim(text)
+      exponent = 10*exponent + (iachar(text(k:k)) - iachar('0'))
+    end do
+    if (text(e_pos + 1:e_pos + 1) == '-') exponent = -exponent
+  end subroutine split_mantissa
 
   !> Whether 0.d x 10^(e + 1) (the digits d given, d(1) the units digit of d.ddd x 10^e)
   !> reads back as x: C's strtod, correctly rounded as a Fortran READ is (no formatted I/O
@@ -1191,78 +1212,8 @@ contains
         real(c_double) :: value
       end function c_strtod
     end interface
-    character(len=48) :: text
-    character(len=8) :: power
-    integer :: m, j
-    m = abs(e + 1)
-    j = len(power)
-    do
-      power(j:j) = achar(iachar('0') + mod(m, 10))
-      m = m/10
-      j = j - 1
-      if (m == 0) exit
-    end do
-    if (e + 1 < 0) then
-      power(j:j) = '-'
-      j = j - 1
-    end if
-    text = '0.'//d//'e'//power(j + 1:)//c_null_char
-    reads_back = c_strtod(text, c_null_ptr) == x
+    reads_back = c_strtod('0.'//d//'e'//int_text(e + 1)//c_null_char, c_null_ptr) == x
   end function reads_back
-
-  !> The reference path of shortest_digits: for n = 1, 2, ... one write with n digits and
-  !> one READ of it, the first that reads back (round-tripping is monotone in n, as the
-  !> conversions round correctly: a bisection after the short ones).
-  subroutine shortest_digits_by_io(x, digits, n, exponent)
-    real(dp), intent(in) :: x
-    character(len=20), intent(out) :: digits
-    integer, intent(out) :: n, exponent
-    character(len=48) :: buffer
-    character(len=24) :: fmt
-    integer :: e_pos, first, low, high, middle
-    first = 1
-    if (x > 1.0e307_dp) first = 17
-    n = 0
-    do low = first, 3
-      if (round_trips(low)) then
-        n = low
-        exit
-      end if
-    end do
-    if (n == 0) then
-      low = max(first, 4)
-      high = 17
-      do while (low < high)
-        middle = (low + high)/2
-        if (round_trips(middle)) then
-          high = middle
-        else
-          low = middle + 1
-        end if
-      end do
-      n = low
-    end if
-    write (fmt, '(a,i0,a)') '(es48.', n - 1, 'e4)'
-    write (buffer, fmt) x
-    buffer = adjustl(buffer)
-    e_pos = scan(buffer, 'Ee')
-    read (buffer(e_pos + 1:), *) exponent
-    digits = without_dot(buffer(1:e_pos - 1))
-    n = len_trim(digits)
-    do while (n > 1 .and. digits(n:n) == '0')
-      n = n - 1
-    end do
-  contains
-    logical function round_trips(m)
-      integer, intent(in) :: m
-      integer :: ios
-      real(dp) :: back
-      write (fmt, '(a,i0,a)') '(es48.', m - 1, 'e4)'
-      write (buffer, fmt) x
-      read (buffer, *, iostat=ios) back
-      round_trips = ios == 0 .and. back == x
-    end function round_trips
-  end subroutine shortest_digits_by_io
 
   !> Deck text of the decimal d.ddd x 10^exponent (d: significant digits, no trailing zero
   !> but the only one): plain notation for exponents -4 to 7 ('0.00025', '9.81', '1000.0'),
@@ -1299,16 +1250,6 @@ contains
     end do
     if (i < 0) text = '-'//text
   end function int_text
-
-  pure function without_dot(text) result(packed)
-    character(len=*), intent(in) :: text
-    character(len=:), allocatable :: packed
-    integer :: c
-    packed = ''
-    do c = 1, len(text)
-      if (text(c:c) /= '.') packed = packed//text(c:c)
-    end do
-  end function without_dot
 
   ! ---------------------------------------------------------------------------------------
   ! Lines of the effective deck
