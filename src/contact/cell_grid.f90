@@ -472,13 +472,17 @@ contains
   end subroutine delete
 
   !> A table twice the size of the boxes still holding bodies (empty boxes are dropped, so
-  !> a body flying far does not leave a trail of boxes behind).
+  !> a body flying far does not leave a trail of boxes behind). At the size it has (most
+  !> rehashes: bodies moving on leave empty boxes behind) it is emptied and filled again in
+  !> place, the boxes still holding bodies set aside meanwhile (a quarter of the table at
+  !> most): a fresh table of four million slots (100,000 spheres on two ranks) costs its
+  !> page faults every time.
   subroutine rehash(self)
     type(cell_grid_t), intent(inout) :: self
     integer(i8), allocatable :: old_key(:, :)
     logical, allocatable :: old_used(:)
     type(cell_t), allocatable :: old_cells(:)
-    integer :: s, t, occupied, new_size
+    integer :: s, t, m, occupied, new_size
     occupied = 0
     do s = 1, self%table_size
       if (self%slot_used(s)) then
@@ -489,6 +493,24 @@ contains
     do while (new_size < 4*(occupied + 1))
       new_size = 2*new_size
     end do
+    if (new_size == self%table_size) then
+      allocate (old_key(3, occupied), old_cells(occupied))
+      m = 0
+      do s = 1, self%table_size
+        if (.not. self%slot_used(s)) cycle
+        if (self%cells(s)%n == 0) cycle
+        m = m + 1
+        old_key(:, m) = self%slot_key(:, s)
+        call move_alloc(self%cells(s)%ids, old_cells(m)%ids)
+        old_cells(m)%n = self%cells(s)%n
+      end do
+      self%slot_used = .false.
+      self%n_used = 0
+      do m = 1, occupied
+        call take_box(old_key(:, m), old_cells(m))
+      end do
+      return
+    end if
     call move_alloc(self%slot_key, old_key)
     call move_alloc(self%slot_used, old_used)
     call move_alloc(self%cells, old_cells)
@@ -499,17 +521,24 @@ contains
     do s = 1, size(old_used)
       if (.not. old_used(s)) cycle
       if (old_cells(s)%n == 0) cycle
-      t = hash_of(old_key(:, s), new_size)
+      call take_box(old_key(:, s), old_cells(s))
+    end do
+  contains
+    !> A box and its list (moved, not copied) into the table.
+    subroutine take_box(key, cell)
+      integer(i8), intent(in) :: key(3)
+      type(cell_t), intent(inout) :: cell
+      t = hash_of(key, self%table_size)
       do while (self%slot_used(t))
         t = t + 1
-        if (t > new_size) t = 1
+        if (t > self%table_size) t = 1
       end do
       self%slot_used(t) = .true.
-      self%slot_key(:, t) = old_key(:, s)
-      call move_alloc(old_cells(s)%ids, self%cells(t)%ids)
-      self%cells(t)%n = old_cells(s)%n
+      self%slot_key(:, t) = key
+      call move_alloc(cell%ids, self%cells(t)%ids)
+      self%cells(t)%n = cell%n
       self%n_used = self%n_used + 1
-    end do
+    end subroutine take_box
   end subroutine rehash
 
   subroutine grow_list(x)

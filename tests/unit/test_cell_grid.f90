@@ -5,7 +5,9 @@
 !> cross-rank window saves and restores (event_loop copy_loop): a grid copied without its
 !> box table (swap_table), changed further (moves, removals, a rehash), restored
 !> from the copy and its table made again (rebuild_lists) answers every query as a grid
-!> built afresh with the saved regions does, before and after more placements.
+!> built afresh with the saved regions does, before and after more placements. Last, bodies
+!> wandering through new boxes (each move leaves empty boxes behind) until the table is
+!> rehashed at its own size, in place: the grid then answers as one built afresh.
 program test_cell_grid
   use kinds, only: dp, i8
   use string_utils, only: str
@@ -63,6 +65,7 @@ program test_cell_grid
   call check(err%failed(), 'a region 2^61 boxes out is refused')
   call grid%free()
   call restore_without_table()
+  call wander_and_rehash_in_place()
   call test_finish()
 
 contains
@@ -142,5 +145,52 @@ contains
     call check(bad == 0, 'a grid restored from a copy without its table answers as one built afresh ('// &
                'queries differing: '//str(bad)//')')
   end subroutine restore_without_table
+
+  subroutine wander_and_rehash_in_place()
+    integer, parameter :: n = 64
+    type(cell_grid_t) :: live, fresh
+    type(error_t) :: err
+    type(random_stream_t) :: rng
+    real(dp) :: c(3, n)
+    integer, allocatable :: a(:), b(:)
+    integer :: i, step, n_a, n_b, bad, size_before, in_place
+    call rng%init(11)
+    call live%init(1.0_dp, n, err, max_span=4)
+    do i = 1, n
+      c(:, i) = [rng%uniform(), rng%uniform(), rng%uniform()]*6.0_dp
+      call live%place(i, c(:, i) - 0.4_dp, c(:, i) + 0.4_dp, err)
+    end do
+    ! every body walks off by a box per step: n_used grows with empty boxes until a rehash
+    ! at the same size drops them (n_used falls, table_size stays)
+    in_place = 0
+    do step = 1, 400
+      size_before = live%table_size
+      n_a = live%n_used
+      do i = 1, n
+        c(:, i) = c(:, i) + [1.0_dp, 0.25_dp*(rng%uniform() - 0.5_dp), 0.0_dp]
+        if (c(1, i) > 60.0_dp) c(1, i) = c(1, i) - 60.0_dp
+        call live%place(i, c(:, i) - 0.4_dp, c(:, i) + 0.4_dp, err)
+      end do
+      if (live%table_size == size_before .and. live%n_used < n_a) in_place = in_place + 1
+    end do
+    call check(.not. err%failed(), 'wandering placements')
+    call check(in_place > 0, 'the table was rehashed at its own size ('//str(in_place)//' times)')
+    call fresh%init(1.0_dp, n, err, max_span=4)
+    do i = 1, n
+      call fresh%place(i, c(:, i) - 0.4_dp, c(:, i) + 0.4_dp, err)
+    end do
+    bad = 0
+    do i = 1, n
+      call live%query(i, a, n_a, n)
+      call fresh%query(i, b, n_b, n)
+      if (n_a /= n_b) then
+        bad = bad + 1
+      else if (any(a(1:n_a) /= b(1:n_b))) then
+        bad = bad + 1
+      end if
+    end do
+    call check(bad == 0, 'after rehashes in place the grid answers as one built afresh (queries differing: '// &
+               str(bad)//')')
+  end subroutine wander_and_rehash_in_place
 
 end program test_cell_grid
