@@ -45,6 +45,7 @@ module free_flight
     procedure :: pack_anchors => flight_pack_anchors
     procedure :: unpack_anchors => flight_unpack_anchors
     procedure :: set_record => flight_set_record
+    procedure :: copy_to => flight_copy_to
   end type free_flight_t
 
 contains
@@ -217,8 +218,9 @@ contains
   end function flight_anchor_words
 
   !> words(:, k): the flight record of body k = 1..n (anchor_words rows), bit for bit.
-  !> rows, when present: only those bodies' records are filled (the others zero), so that a
-  !> few bodies' records cost what they are (a light window start's changed ghosts).
+  !> rows, when present: words(:, m) is the record of body rows(m) instead (n unused), so
+  !> that a few bodies' records cost what they are (a light window start's changed ghosts,
+  !> a cross phase's ghosts sent back), not O(bodies held).
   subroutine flight_pack_anchors(self, n, words, rows)
     class(free_flight_t), intent(in) :: self
     integer, intent(in) :: n
@@ -226,25 +228,22 @@ contains
     integer, intent(in), optional :: rows(:)
     integer(i8), allocatable :: mold(:)
     integer :: k, w, m, n_rows
-    allocate (words(self%anchor_words(), n), mold(0))
     n_rows = n
-    if (present(rows)) then
-      words = 0
-      n_rows = size(rows)
-    end if
+    if (present(rows)) n_rows = size(rows)
+    allocate (words(self%anchor_words(), n_rows), mold(0))
+    w = size(words, 1)
     do m = 1, n_rows
       k = m
       if (present(rows)) k = rows(m)
-      words(1, k) = merge(1_i8, 0_i8, self%loaded(k))
-      words(2:4, k) = transfer(self%accel(:, k), mold)
-      words(5, k) = 0
+      words(1, m) = merge(1_i8, 0_i8, self%loaded(k))
+      words(2:4, m) = transfer(self%accel(:, k), mold)
+      words(5, m) = 0
       if (.not. self%exact) cycle
-      words(5, k) = merge(1_i8, 0_i8, self%anchored(k))
-      words(6, k) = transfer(self%t0(k), 1_i8)
-      words(7:9, k) = transfer(self%x0(:, k), mold)
-      words(10:12, k) = transfer(self%v0(:, k), mold)
-      w = size(words, 1)
-      words(13:w, k) = transfer(self%rotors(k), mold)
+      words(5, m) = merge(1_i8, 0_i8, self%anchored(k))
+      words(6, m) = transfer(self%t0(k), 1_i8)
+      words(7:9, m) = transfer(self%x0(:, k), mold)
+      words(10:12, m) = transfer(self%v0(:, k), mold)
+      words(13:w, m) = transfer(self%rotors(k), mold)
     end do
   end subroutine flight_pack_anchors
 
@@ -263,6 +262,50 @@ contains
 
   !> Body i's flight record from words (one record of pack_anchors), bit for bit: a body
   !> whose new trajectory another rank computed (a cross-rank impact).
+  !> dst becomes a copy of self, its arrays reused where they have the shape already. (The
+  !> intrinsic assignment of the type allocates every array afresh: 40 MB of rotors for
+  !> 50,000 bodies, page faults and all, at every cross-rank window's save and restore.)
+  subroutine flight_copy_to(self, dst)
+    class(free_flight_t), intent(in) :: self
+    type(free_flight_t), intent(inout) :: dst
+    dst%exact = self%exact
+    if (allocated(self%rotors)) then
+      dst%rotors = self%rotors
+    else if (allocated(dst%rotors)) then
+      deallocate (dst%rotors)
+    end if
+    if (allocated(self%t0)) then
+      dst%t0 = self%t0
+    else if (allocated(dst%t0)) then
+      deallocate (dst%t0)
+    end if
+    if (allocated(self%x0)) then
+      dst%x0 = self%x0
+    else if (allocated(dst%x0)) then
+      deallocate (dst%x0)
+    end if
+    if (allocated(self%v0)) then
+      dst%v0 = self%v0
+    else if (allocated(dst%v0)) then
+      deallocate (dst%v0)
+    end if
+    if (allocated(self%anchored)) then
+      dst%anchored = self%anchored
+    else if (allocated(dst%anchored)) then
+      deallocate (dst%anchored)
+    end if
+    if (allocated(self%loaded)) then
+      dst%loaded = self%loaded
+    else if (allocated(dst%loaded)) then
+      deallocate (dst%loaded)
+    end if
+    if (allocated(self%accel)) then
+      dst%accel = self%accel
+    else if (allocated(dst%accel)) then
+      deallocate (dst%accel)
+    end if
+  end subroutine flight_copy_to
+
   subroutine flight_set_record(self, i, words)
     class(free_flight_t), intent(inout) :: self
     integer, intent(in) :: i

@@ -52,14 +52,17 @@ contains
 
   !> The rows rows(:) of bodies (owned or ghost), in that order, into buffer (allocated to
   !> its exact length). extra(:, k): the caller's integers of row k, packed with it.
-  subroutine pack_bodies(bodies, rows, buffer, extra)
+  subroutine pack_bodies(bodies, rows, buffer, extra, extra_of_rows)
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: rows(:)
     real(dp), allocatable, intent(out) :: buffer(:)
     integer(i8), intent(in), optional :: extra(:, :)
+    !> (instead of extra) extra_of_rows(:, k): the extras of body rows(k)
+    integer(i8), intent(in), optional :: extra_of_rows(:, :)
     integer :: n_extra, w, k, i, o, flags
     n_extra = 0
     if (present(extra)) n_extra = size(extra, 1)
+    if (present(extra_of_rows)) n_extra = size(extra_of_rows, 1)
     w = BODY_WORDS + n_extra
     allocate (buffer(packed_words(size(rows), n_extra)))
     buffer(1) = as_real(int(PACK_LAYOUT_VERSION, i8))
@@ -86,7 +89,12 @@ contains
       buffer(o + 23:o + 25) = bodies%w(:, i)
       buffer(o + 26:o + 28) = bodies%a(:, i)
       buffer(o + 29:o + 31) = bodies%alpha(:, i)
-      if (n_extra > 0) buffer(o + 32:o + w) = as_reals(extra(:, i))
+      if (n_extra == 0) cycle
+      if (present(extra_of_rows)) then
+        buffer(o + 32:o + w) = as_reals(extra_of_rows(:, k))
+      else
+        buffer(o + 32:o + w) = as_reals(extra(:, i))
+      end if
     end do
   end subroutine pack_bodies
 

@@ -232,7 +232,7 @@ contains
   contains
     subroutine save_state()
       saved_bodies = self%bodies
-      saved_flight = self%propagator
+      call self%propagator%copy_to(saved_flight)
       n_log = self%collisions%n_log
       ! Of the collision stage, what an elastic event changes and later events or the
       ! summary read: counters and the sleeping state. Its gap memo is a cache (an entry
@@ -247,7 +247,7 @@ contains
     end subroutine save_state
     subroutine restore_state()
       self%bodies = saved_bodies
-      self%propagator = saved_flight
+      call saved_flight%copy_to(self%propagator)
       self%collisions%stats = saved_stage%stats
       self%collisions%impulses = saved_stage%impulses
       self%collisions%impact_friction = saved_stage%impact_friction
@@ -411,11 +411,10 @@ contains
     end do
     call self%propagator%pack_anchors(n0, words, rows)
     w = size(words, 1)
-    allocate (extra(w + 1, n0))
-    ! (only the rows sent are read)
-    extra(1:w, rows) = words(:, rows)
-    extra(w + 1, rows) = self%events%version(rows)
-    call pack_bodies(self%bodies, rows, part, extra)
+    allocate (extra(w + 1, size(rows)))
+    extra(1:w, :) = words
+    extra(w + 1, :) = self%events%version(rows)
+    call pack_bodies(self%bodies, rows, part, extra_of_rows=extra)
     neighbours = self%dom%neighbours()
     allocate (counts(0:par%n_ranks - 1), send(0))
     counts = 0
@@ -611,21 +610,24 @@ contains
     integer(i8), intent(in) :: versions(:)     !< the owned rows' versions before the phase
     real(dp), intent(in) :: t
     type(error_t), intent(inout) :: err
-    integer(i8), allocatable :: words(:, :), got(:, :)
+    integer(i8), allocatable :: words(:, :), got(:, :), keys(:, :)
     real(dp), allocatable :: send(:), part(:), recv(:)
-    integer, allocatable :: counts(:), rows(:)
+    integer, allocatable :: counts(:), rows(:), changed(:), order(:)
     logical, allocatable :: updated(:)
     type(bodies_t) :: arrived
-    integer :: n_total, r, i, k, row
-    n_total = self%bodies%n_total()
-    call self%propagator%pack_anchors(n_total, words)
+    integer :: n0, r, i, k, row, mid
+    n0 = self%bodies%n_owned
+    ! the ghosts this rank changed (O(ghosts), not O(rows held))
+    changed = pack([(i, i=n0 + 1, self%bodies%n_total())], &
+                   [(self%events%first_change(i) <= t, i=n0 + 1, self%bodies%n_total())])
     allocate (counts(0:par%n_ranks - 1), send(0))
     do r = 0, par%n_ranks - 1
-      rows = pack([(i, i=1, n_total)], [(i > self%bodies%n_owned .and. owner(i) == r .and. &
-                                         self%events%first_change(i) <= t, i=1, n_total)])
       counts(r) = 0
+      if (size(changed) == 0) cycle
+      rows = pack(changed, owner(changed) == r)
       if (size(rows) == 0) cycle
-      call pack_bodies(self%bodies, rows, part, words)
+      call self%propagator%pack_anchors(0, words, rows)
+      call pack_bodies(self%bodies, rows, part, extra_of_rows=words)
       counts(r) = size(part)
       send = [send, part]
       self%cross_count(4) = self%cross_count(4) + size(rows)
@@ -635,17 +637,20 @@ contains
       if (err%ok()) call err%set(ERR_INTERNAL, 'sending cross-rank impacts failed on another rank')
       return
     end if
-    allocate (updated(self%bodies%n_owned))
+    allocate (updated(n0))
     updated = .false.
     call unpack_blocks(recv, arrived, err, got)
+    if (err%ok() .and. arrived%n_owned > 0) then
+      ! the owned rows by gid (a search per arrival, not a scan of every owned row)
+      allocate (keys(1, n0))
+      keys(1, :) = self%bodies%gid(1:n0)
+      call sort_index_keys(keys, order)
+      keys = keys(:, order)
+    end if
     do k = 1, merge(arrived%n_owned, 0, err%ok())
       row = 0
-      do i = 1, self%bodies%n_owned
-        if (self%bodies%gid(i) == arrived%gid(k)) then
-          row = i
-          exit
-        end if
-      end do
+      mid = find_key(keys, n0, [arrived%gid(k)])
+      if (mid > 0) row = order(mid)
       if (row == 0) then
         call err%set(ERR_INTERNAL, 'cross-rank impact at t = '//str(t)//' s: body '//str(arrived%gid(k))// &
                      ' is not owned by the rank its new trajectory was sent to')
