@@ -11,6 +11,7 @@ program ricochet
   use simulation, only: simulation_t
   use startup_report, only: check_deck
   use stop_request, only: install_stop_handlers, exit_now
+  use memory_policy, only: keep_freed_memory
   implicit none
 
   type(parallel_t) :: par
@@ -20,8 +21,11 @@ program ricochet
   character(len=:), allocatable :: deck_path, restart_path, mode, output_override
   character(len=4096) :: line
   integer :: report, status
+  logical :: memory_kept
 
   call par%init()
+  ! (large arrays rebuilt at every window then cost no page faults: memory_policy)
+  memory_kept = keep_freed_memory()
   call parse_command_line(mode, deck_path, restart_path, output_override, err)
   if (err%failed()) call fail(par, err)
 
