@@ -181,31 +181,54 @@ contains
 
     write (unit, '(a)') '! ricochet effective input: every variable, defaults filled in (docs/input.md)'
     if (allocated(deck%path)) write (unit, '(a)') '! deck: '//deck%path
-    call write_run_group(deck%run, unit)
-    call write_integrator_group(deck%integrator, unit)
-    call write_contact_group(deck%contact, unit)
-    call write_output_group(deck%output, unit)
-    call write_parallel_group(deck%parallel, unit)
+    call write_settings(deck, unit)
     if (.not. allocated(deck%bodies)) return
     do k = 1, deck%n_bodies
       call write_body_group(deck%bodies(k), k, unit)
     end do
   end subroutine write_effective_deck
 
+  !> The groups of the run's settings (all but the bodies) of the effective deck.
+  subroutine write_settings(deck, unit)
+    type(deck_t), intent(in) :: deck
+    integer, intent(in) :: unit
+    call write_run_group(deck%run, unit)
+    call write_integrator_group(deck%integrator, unit)
+    call write_contact_group(deck%contact, unit)
+    call write_output_group(deck%output, unit)
+    call write_parallel_group(deck%parallel, unit)
+  end subroutine write_settings
+
   !> The effective deck as 'variable = value' lines under their group headers ('&run',
   !> '&body #3', '/'), comments dropped: what a checkpoint stores, so that a restart can
   !> name every variable its deck changed. lines are as wide as the longest: a line per
   !> variable and body makes 540,000 lines for 27,000 bodies, 600 MB at the full width of
   !> line_length (and as long to fill), 40 MB so.
-  subroutine effective_deck_lines(deck, lines)
+  !> groups, when present: only the lines of body groups groups(1) to groups(2), and those
+  !> of the run's settings (&run to &parallel) only if settings is true: a share of the
+  !> whole (a rank's; the shares in order are the whole).
+  subroutine effective_deck_lines(deck, lines, groups, settings)
     type(deck_t), intent(in) :: deck
     character(len=:), allocatable, intent(out) :: lines(:)
+    integer, intent(in), optional :: groups(2)
+    logical, intent(in), optional :: settings
     character(len=:), allocatable :: text, grown_text
     integer, allocatable :: ends(:), grown(:)
     character(len=line_length) :: line
     integer :: unit, status, n, k, used, width, length
     open (newunit=unit, status='scratch', action='readwrite', form='formatted')
-    call write_effective_deck(deck, unit)
+    if (present(groups)) then
+      if (present(settings)) then
+        if (settings) call write_settings(deck, unit)
+      end if
+      if (allocated(deck%bodies)) then
+        do k = max(1, groups(1)), min(deck%n_bodies, groups(2))
+          call write_body_group(deck%bodies(k), k, unit)
+        end do
+      end if
+    else
+      call write_effective_deck(deck, unit)
+    end if
     rewind (unit)
     ! the kept lines one after another in text, line k ending at ends(k)
     allocate (character(len=65536) :: text)

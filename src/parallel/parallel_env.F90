@@ -14,7 +14,7 @@ module parallel_env
                      MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_INTEGER8, MPI_LOGICAL, MPI_LOR, &
                      MPI_CHARACTER, MPI_IN_PLACE, MPI_Cart_create, MPI_Cart_shift, MPI_Comm_free, &
                      MPI_Sendrecv, MPI_Status, MPI_PROC_NULL, MPI_SUCCESS, MPI_Alltoall, MPI_Alltoallv, &
-                     operator(/=)
+                     MPI_Allgather, MPI_Allgatherv, operator(/=)
 #endif
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INTERNAL, ERR_PARALLEL
@@ -48,6 +48,7 @@ module parallel_env
     procedure :: cart_free => parallel_cart_free
     procedure :: exchange_faces => parallel_exchange_faces
     procedure :: alltoallv => parallel_alltoallv
+    procedure :: allgather_lines => parallel_allgather_lines
     generic :: sum => sum_dp, sum_int, sum_int8
     generic :: sum_inplace => sum_dp_array, sum_exact_array, sum_exact_one
     generic :: max => max_dp, max_int
@@ -447,6 +448,64 @@ contains
     if (.false.) exscan_int8 = value
 #endif
   end function exscan_int8
+
+  !> Every rank's lines (trailing blanks not kept), rank 0's first, in each rank's order,
+  !> on every rank: all as wide as the longest. Collective.
+  subroutine parallel_allgather_lines(self, mine, all)
+    class(parallel_t), intent(in) :: self
+    character(len=*), intent(in) :: mine(:)
+    character(len=:), allocatable, intent(out) :: all(:)
+    integer, allocatable :: lengths(:), all_lengths(:), n_lines(:), n_chars(:), line_at(:), char_at(:)
+    character(len=:), allocatable :: flat, all_flat
+    integer :: k, r, o, width, total
+    allocate (lengths(size(mine)))
+    do k = 1, size(mine)
+      lengths(k) = len_trim(mine(k))
+    end do
+    allocate (character(len=sum(lengths)) :: flat)
+    o = 0
+    do k = 1, size(mine)
+      flat(o + 1:o + lengths(k)) = mine(k)(1:lengths(k))
+      o = o + lengths(k)
+    end do
+    allocate (n_lines(0:self%n_ranks - 1), n_chars(0:self%n_ranks - 1))
+    n_lines = size(mine)
+    n_chars = len(flat)
+#ifdef RICOCHET_USE_MPI
+    if (self%n_ranks > 1) then
+      call MPI_Allgather(size(mine), 1, MPI_INTEGER, n_lines, 1, MPI_INTEGER, self%comm)
+      call MPI_Allgather(len(flat), 1, MPI_INTEGER, n_chars, 1, MPI_INTEGER, self%comm)
+    end if
+#endif
+    allocate (line_at(0:self%n_ranks - 1), char_at(0:self%n_ranks - 1))
+    line_at(0) = 0
+    char_at(0) = 0
+    do r = 1, self%n_ranks - 1
+      line_at(r) = line_at(r - 1) + n_lines(r - 1)
+      char_at(r) = char_at(r - 1) + n_chars(r - 1)
+    end do
+    total = sum(n_chars)
+    allocate (all_lengths(sum(n_lines)))
+    allocate (character(len=total) :: all_flat)
+    if (self%n_ranks == 1) then
+      all_lengths = lengths
+      all_flat = flat
+    end if
+#ifdef RICOCHET_USE_MPI
+    if (self%n_ranks > 1) then
+      call MPI_Allgatherv(lengths, size(lengths), MPI_INTEGER, all_lengths, n_lines, line_at, MPI_INTEGER, self%comm)
+      call MPI_Allgatherv(flat, len(flat), MPI_CHARACTER, all_flat, n_chars, char_at, MPI_CHARACTER, self%comm)
+    end if
+#endif
+    width = 1
+    if (size(all_lengths) > 0) width = max(1, maxval(all_lengths))
+    allocate (character(len=width) :: all(size(all_lengths)))
+    o = 0
+    do k = 1, size(all_lengths)
+      all(k) = all_flat(o + 1:o + all_lengths(k))
+      o = o + all_lengths(k)
+    end do
+  end subroutine parallel_allgather_lines
 
   subroutine bcast_string(self, text, root)
     class(parallel_t), intent(in) :: self
