@@ -204,6 +204,13 @@ contains
     real(dp), allocatable :: lower(:, :), upper(:, :)
     integer(i8), allocatable :: lo(:, :), hi(:, :)
     integer :: i, ni, s, k, kept
+    ! bodies only appended (every old body keeps its number): the table stands as it is
+    if (n_bodies >= size(self%placed) .and. size(new_index) >= size(self%placed)) then
+      if (all(new_index(1:size(self%placed)) == [(i, i=1, size(self%placed))])) then
+        call self%grow_bodies(n_bodies)
+        return
+      end if
+    end if
     allocate (placed(n_bodies), large(n_bodies), lower(3, n_bodies), upper(3, n_bodies), lo(3, n_bodies), &
               hi(3, n_bodies))
     placed = .false.

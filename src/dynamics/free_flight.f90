@@ -46,6 +46,7 @@ module free_flight
     procedure :: unpack_anchors => flight_unpack_anchors
     procedure :: set_record => flight_set_record
     procedure :: copy_to => flight_copy_to
+    procedure :: grow => flight_grow
   end type free_flight_t
 
 contains
@@ -305,6 +306,43 @@ contains
       deallocate (dst%accel)
     end if
   end subroutine flight_copy_to
+
+  !> Room for bodies up to n, the records held kept (rows appended: ghosts that arrive at a
+  !> light window start). New rows: no load, not anchored.
+  subroutine flight_grow(self, n)
+    class(free_flight_t), intent(inout) :: self
+    integer, intent(in) :: n
+    type(free_rotor_t), allocatable :: rotors(:)
+    real(dp), allocatable :: t0(:), x0(:, :), v0(:, :), accel(:, :)
+    logical, allocatable :: anchored(:), loaded(:)
+    integer :: old
+    if (.not. allocated(self%loaded)) return
+    old = size(self%loaded)
+    if (old >= n) return
+    allocate (loaded(n), accel(3, n))
+    loaded(1:old) = self%loaded
+    loaded(old + 1:) = .false.
+    accel(:, 1:old) = self%accel
+    accel(:, old + 1:) = 0.0_dp
+    call move_alloc(loaded, self%loaded)
+    call move_alloc(accel, self%accel)
+    if (.not. self%exact) return
+    allocate (rotors(n), t0(n), x0(3, n), v0(3, n), anchored(n))
+    rotors(1:old) = self%rotors
+    t0(1:old) = self%t0
+    x0(:, 1:old) = self%x0
+    v0(:, 1:old) = self%v0
+    anchored(1:old) = self%anchored
+    anchored(old + 1:) = .false.
+    t0(old + 1:) = 0.0_dp
+    x0(:, old + 1:) = 0.0_dp
+    v0(:, old + 1:) = 0.0_dp
+    call move_alloc(rotors, self%rotors)
+    call move_alloc(t0, self%t0)
+    call move_alloc(x0, self%x0)
+    call move_alloc(v0, self%v0)
+    call move_alloc(anchored, self%anchored)
+  end subroutine flight_grow
 
   subroutine flight_set_record(self, i, words)
     class(free_flight_t), intent(inout) :: self

@@ -160,8 +160,11 @@ module event_loop
     integer, allocatable :: zone_sides(:)
     !> A placement of an owned body found it outside what the halo covers (the condition of
     !> STOP_HALO) in this window, in any cross mode (a cross phase or a repeated run does not
-    !> stop for it): the next window must start in full, with migration and the whole halo
+    !> stop for it): the next window's start must send it to the neighbours it came near
+    !> (halo_seen), or, if it left its own brick (halo_exit_seen), start in full, with
+    !> migration and the whole halo
     logical :: halo_seen = .false.
+    logical :: halo_exit_seen = .false.
     !> a ghost in an impulse group of the cross phase must lie in [complete_lo, complete_hi]:
     !> every body within the band of it is then held here [m]
     real(dp) :: complete_lo(3) = -far_future, complete_hi(3) = far_future
@@ -179,6 +182,7 @@ module event_loop
     procedure :: take_trajectories => loop_take_trajectories
     procedure :: take_ghost_trajectories => loop_take_ghost_trajectories
     procedure :: start_cross_window => loop_start_cross_window
+    procedure :: zone_sides_of => loop_zone_sides_of
     procedure :: close_paths => loop_close_paths
     procedure :: queued_cross_time => loop_queued_cross_time
     procedure :: queued_halo_time => loop_queued_halo_time
@@ -399,11 +403,20 @@ contains
     call move_alloc(region_x, self%region_x)
     call move_alloc(island_of, self%island_of)
     call move_alloc(released_at, self%released_at)
-    deallocate (self%version, self%state_time, self%mark)
-    allocate (self%version(max(n, 1)), self%state_time(n), self%mark(n))
+    ! (a row that stayed keeps the time its state was evaluated at: at a full start every
+    ! row was evaluated at t, at a light start's arrivals most rows are where their last
+    ! event left them, and sync must evaluate those before they are used at t)
+    allocate (released_at(n))
+    do ni = 1, n
+      released_at(ni) = t
+      i = old_of(ni)
+      if (i > 0 .and. i <= size(self%state_time)) released_at(ni) = self%state_time(i)
+    end do
+    call move_alloc(released_at, self%state_time)
+    deallocate (self%version, self%mark)
+    allocate (self%version(max(n, 1)), self%mark(n))
     self%version = 0
     self%version(1:n) = versions(1:n)
-    self%state_time = t
     self%mark = 0
     do ni = 1, n
       if (old_of(ni) == 0 .and. .not. bodies%fixed(ni)) self%version(ni) = self%version(ni) + 1
@@ -642,16 +655,23 @@ contains
     halo_left = halo_left_at(self, bodies%x(:, i), i)
   end function halo_left
 
+  !> The sides of the brick whose neighbours hold owned body i as a ghost (zone_sides).
+  pure integer function loop_zone_sides_of(self, i) result(sides)
+    class(event_loop_t), intent(in) :: self
+    integer, intent(in) :: i
+    sides = 0
+    if (allocated(self%zone_sides)) then
+      if (i <= size(self%zone_sides)) sides = self%zone_sides(i)
+    end if
+  end function loop_zone_sides_of
+
   !> halo_left for owned body i were its centre at x [m].
   pure logical function halo_left_at(self, x, i)
     type(event_loop_t), intent(in) :: self
     real(dp), intent(in) :: x(3)
     integer, intent(in) :: i
     integer :: sides, now, k
-    sides = 0
-    if (allocated(self%zone_sides)) then
-      if (i <= size(self%zone_sides)) sides = self%zone_sides(i)
-    end if
+    sides = self%zone_sides_of(i)
     now = 0
     do k = 1, 3
       if (x(k) < self%watch_lo(k)) now = ibset(now, 2*k - 2)
@@ -817,6 +837,7 @@ contains
     self%stop_kind = STOP_NONE
     self%stop_time = far_future
     self%halo_seen = .false.
+    self%halo_exit_seen = .false.
     self%n_stop_rows = 0
     self%n_dropped_rows = 0
     if (.not. allocated(self%dropped_rows)) allocate (self%dropped_rows(8))
@@ -1018,6 +1039,9 @@ contains
     if (self%cross_mode /= CROSS_OFF .and. i <= self%n_owned .and. .not. bodies%fixed(i)) then
       if (halo_left(self, bodies, i)) then
         self%halo_seen = .true.
+        if (self%zone_sides_of(i) /= 0) then
+          if (any(bodies%x(:, i) < self%brick_lo) .or. any(bodies%x(:, i) > self%brick_hi)) self%halo_exit_seen = .true.
+        end if
         if (self%cross_mode == CROSS_SPECULATE .and. self%stop_kind == STOP_NONE) then
           self%stop_kind = STOP_HALO
           self%stop_time = self%time

@@ -119,8 +119,9 @@ module simulation
     real(dp) :: cross_r_max = 0.0_dp          !< largest bounding radius of a moving body of the scene [m]
     !> per ghost row: its owner's trajectory version when it came (-1: a fixed body)
     integer(i8), allocatable :: ghost_versions(:)
-    !> windows, repeated (rolled back), cross phases, ghost updates sent, light starts
-    integer(i8) :: cross_count(5) = 0
+    !> windows, repeated (rolled back), cross phases, ghost updates sent, light starts,
+    !> bodies sent at light starts to neighbours they came near (re-zoned)
+    integer(i8) :: cross_count(6) = 0
     real(dp) :: cross_wall(2) = 0.0_dp        !< wall in window starts (migration, halo, loop built), in repeated runs [s]
     logical :: restarted = .false.
     !> Why the run stopped before t_end (run_stopped): 0 it did not, 128 + the signal number

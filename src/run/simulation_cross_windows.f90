@@ -95,7 +95,7 @@ contains
         call start_window(self, par, t_hard, owner, frontier, err)
         if (err%failed()) return
       else
-        call light_start(self, par, frontier, start_versions, dropped, err)
+        call light_start(self, par, owner, frontier, start_versions, dropped, t_hard, err)
         if (err%failed()) return
         self%cross_count(5) = self%cross_count(5) + 1
       end if
@@ -193,9 +193,9 @@ contains
         self%cross_wall(2) = self%cross_wall(2) + (par%wtime() - clock)
       end if
       self%events%cross_mode = CROSS_OFF
-      ! the next window starts light (only the ghosts that changed come again) unless a body
-      ! left what the halo covers somewhere
-      need_full = par%any(self%events%halo_seen)
+      ! the next window starts light (only the ghosts that changed come again, and the bodies
+      ! that came near a neighbouring brick) unless a body left its brick somewhere
+      need_full = par%any(self%events%halo_exit_seen)
       ! (events of every rank: the same count on any number of ranks)
       self%step = self%step + par%sum(self%events%stats%impacts - events_before)
       self%collisions%stats%events = self%events%stats%impacts
@@ -375,45 +375,73 @@ contains
   end subroutine start_window
 
   !> A light window start (docs/architecture.md, "Light window starts"), allowed while no
-  !> owned body has left what the halo of the last full start covers (no halo_seen since):
-  !> every rank's rows stay as they are, nothing migrates, and only the frontier bodies
-  !> (held as ghosts elsewhere) whose trajectory changed since the last start go to the
-  !> neighbours, evaluated at self%time, with their flight records and versions (one
-  !> alltoallv); a rank holding one as a ghost takes row, record and version bit for bit
-  !> and the loop takes it as a new trajectory (take_ghost_trajectories), as it takes the
-  !> ghosts whose pair a cross phase dropped (dropped: rows), whose pairs it makes again.
-  !> Every ghost then follows its owner's trajectory, as after a full start, so the window
-  !> that follows is the same; a full start's migration and two-ring exchange were
-  !> O(bodies per rank), this is O(changed frontier bodies) but for the flight records'
-  !> packing. Collective.
-  subroutine light_start(self, par, frontier, start_versions, dropped, err)
+  !> owned body has left its brick since the last full start (no halo_exit_seen): every
+  !> rank's rows stay as they are, nothing migrates, and only two kinds of owned bodies go
+  !> to the neighbours, evaluated at self%time, with their flight records and versions (one
+  !> alltoallv): the frontier bodies (held as ghosts elsewhere) whose trajectory changed
+  !> since the last start, and, where this rank's run saw a body come within two boxes of a
+  !> side it was not sent to (halo_seen), every body now so (re-zoned: its zone grows and
+  !> it joins the frontier). A rank holding one as a ghost takes row, record and version bit
+  !> for bit and the loop takes it as a new trajectory (take_ghost_trajectories), as it
+  !> takes the ghosts whose pair a cross phase dropped (dropped: rows), whose pairs it makes
+  !> again; a rank whose halo holds one it does not hold yet appends it as a ghost row (in
+  !> global-id order), which the loop takes as a full start takes an arrival (remap_bodies:
+  !> placed, its pairs made and certified). Every ghost then follows its owner's trajectory
+  !> and every body within the halo of a rank is held there, as after a full start, so the
+  !> window that follows is the same; a full start's migration and two-ring exchange were
+  !> O(bodies per rank), this is O(changed frontier bodies) (O(owned bodies) for the scan
+  !> of a re-zoning start). Collective.
+  subroutine light_start(self, par, owner, frontier, start_versions, dropped, t_hard, err)
     type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
-    logical, intent(in) :: frontier(:)
+    integer, allocatable, intent(inout) :: owner(:)
+    logical, allocatable, intent(inout) :: frontier(:)
     integer(i8), intent(in) :: start_versions(:)
     integer, intent(in) :: dropped(:)
+    real(dp), intent(in) :: t_hard
     type(error_t), intent(inout) :: err
-    integer(i8), allocatable :: words(:, :), extra(:, :), got(:, :), keys(:, :)
+    integer(i8), allocatable :: words(:, :), extra(:, :), got(:, :), keys(:, :), new_keys(:, :), versions(:)
     real(dp), allocatable :: part(:), send(:), recv(:)
-    integer, allocatable :: rows(:), counts(:), neighbours(:), order(:), taken(:)
+    integer, allocatable :: rows(:), counts(:), neighbours(:), order(:), taken(:), new_rows(:), new_order(:), &
+                            new_index(:)
     logical, allocatable :: take(:)
     type(bodies_t) :: arrived
-    integer :: n0, ng, i, k, r, mid, w
+    integer :: n0, ng, n_before, n_rows, i, k, r, mid, w, sides
+    logical :: rezone, send_it, rebuilt
     n0 = self%bodies%n_owned
     ng = self%bodies%n_ghost
-    ! the changed frontier bodies, at the window's start
-    allocate (rows(0))
+    rezone = self%events%halo_seen
+    ! the changed frontier bodies and the re-zoned ones, at the window's start
+    allocate (rows(16))
+    n_rows = 0
     do i = 1, min(n0, size(frontier), size(start_versions))
-      if (.not. frontier(i) .or. self%bodies%fixed(i)) cycle
-      if (self%events%version(i) == start_versions(i)) cycle
-      call self%propagator%evaluate(self%bodies, i, self%time, self%deck%run%gravity)
-      rows = [rows, i]
+      if (self%bodies%fixed(i)) cycle
+      send_it = frontier(i) .and. self%events%version(i) /= start_versions(i)
+      if (rezone) then
+        call self%propagator%evaluate(self%bodies, i, self%time, self%deck%run%gravity)
+        sides = near_sides(self%dom, self%bodies%x(:, i), halo_rings)
+        if (iand(sides, not(self%zone(i))) /= 0) then
+          self%zone(i) = ior(self%zone(i), sides)
+          frontier(i) = .true.
+          send_it = .true.
+          self%cross_count(6) = self%cross_count(6) + 1
+        end if
+      else if (send_it) then
+        call self%propagator%evaluate(self%bodies, i, self%time, self%deck%run%gravity)
+      end if
+      if (.not. send_it) cycle
+      if (n_rows == size(rows)) rows = [rows, rows]
+      n_rows = n_rows + 1
+      rows(n_rows) = i
     end do
+    rows = rows(1:n_rows)
     call self%propagator%pack_anchors(n0, words, rows)
     w = size(words, 1)
-    allocate (extra(w + 1, size(rows)))
+    ! (record, version, sending rank)
+    allocate (extra(w + 2, n_rows))
     extra(1:w, :) = words
     extra(w + 1, :) = self%events%version(rows)
+    extra(w + 2, :) = int(par%rank, i8)
     call pack_bodies(self%bodies, rows, part, extra_of_rows=extra)
     neighbours = self%dom%neighbours()
     allocate (counts(0:par%n_ranks - 1), send(0))
@@ -429,7 +457,7 @@ contains
       return
     end if
     ! the ghost rows by gid
-    allocate (keys(1, ng), take(ng))
+    allocate (keys(1, ng), take(ng), new_rows(0))
     take = .false.
     if (ng > 0) keys(1, :) = self%bodies%gid(n0 + 1:n0 + ng)
     call sort_index_keys(keys, order)
@@ -437,13 +465,43 @@ contains
     call unpack_blocks(recv, arrived, err, got)
     do k = 1, merge(arrived%n_owned, 0, err%ok())
       mid = find_key(keys, ng, [arrived%gid(k)])
-      if (mid == 0) cycle      ! (a neighbour's frontier body this rank does not hold)
+      if (mid == 0) then
+        ! (a neighbour's body this rank does not hold: a ghost from now on if its halo has it)
+        if (self%dom%in_halo(arrived%x(:, k), halo_rings)) new_rows = [new_rows, k]
+        cycle
+      end if
       i = order(mid)
       call copy_row(arrived, k, self%bodies, n0 + i)
       call self%propagator%set_record(n0 + i, got(1:w, k))
       self%ghost_versions(i) = got(w + 1, k)
       take(i) = .true.
     end do
+    if (par%any(err%failed())) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'a light window start failed on another rank')
+      return
+    end if
+    if (size(new_rows) > 0) then
+      ! the new ghosts appended in global-id order, with their records, versions and owners;
+      ! the loop takes them as arrivals (every other row keeps its number)
+      allocate (new_keys(1, size(new_rows)))
+      new_keys(1, :) = arrived%gid(new_rows)
+      call sort_index_keys(new_keys, new_order)
+      new_rows = new_rows(new_order)
+      n_before = self%bodies%n_total()
+      call self%bodies%append_rows(arrived, new_rows, .true.)
+      call self%propagator%grow(self%bodies%n_total())
+      do k = 1, size(new_rows)
+        call self%propagator%set_record(n_before + k, got(1:w, new_rows(k)))
+      end do
+      owner = [owner(1:n_before), int(got(w + 2, new_rows))]
+      self%ghost_versions = [self%ghost_versions, got(w + 1, new_rows)]
+      versions = [self%events%version(1:n_before), [(0_i8, k=1, size(new_rows))]]
+      new_index = [(i, i=1, n_before)]
+      call self%events%remap_bodies(self%collisions, self%bodies, self%shapes, self%propagator, new_index, versions, &
+                                    self%time, t_hard, err, rebuilt)
+      if (err%ok() .and. rebuilt) call err%set(ERR_INTERNAL, 'light window start: the loop was built again at t = '// &
+                                               str(self%time)//' s')
+    end if
     if (par%any(err%failed())) then
       if (err%ok()) call err%set(ERR_INTERNAL, 'a light window start failed on another rank')
       return

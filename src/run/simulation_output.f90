@@ -145,7 +145,7 @@ contains
   module procedure simulation_summary
     real(dp) :: wall, per_step, min_sep, load(3, 3), startup, window_wall, window_loop_wall
     integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages, window_certificates, window_rebuilds
-    integer(i8) :: convex_bounds, cross_count(5), deferred
+    integer(i8) :: convex_bounds, cross_count(6), deferred
     real(dp) :: cross_wall(2), rate
     wall = par%wtime() - self%wall_start
     ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
@@ -166,6 +166,7 @@ contains
     cross_count(1:3) = self%cross_count(1:3)
     cross_count(4) = par%sum(self%cross_count(4))
     cross_count(5) = self%cross_count(5)
+    cross_count(6) = par%sum(self%cross_count(6))
     cross_wall = [par%max(self%cross_wall(1)), par%max(self%cross_wall(2))]
     deferred = par%sum(self%events%deferred)
     ! Over every rank (collective, before rank 0 alone goes on to print).
@@ -213,7 +214,8 @@ contains
         write (*, '(a)') '  cross-rank windows   '//str(cross_count(1))//' ('//str(cross_count(2))//' run again to '// &
           'an earlier time, '//str(cross_count(3))//' of them ending in a cross phase (at a cross-rank impact '// &
           'or a halo stop known ahead), '//str(cross_count(4))// &
-          ' ghosts sent back to their owners, '//str(cross_count(5))//' started light: only changed ghosts sent); '// &
+          ' ghosts sent back to their owners, '//str(cross_count(5))//' started light: only changed ghosts sent, and '//str(cross_count(6))//' bodies that came near a '// &
+          'neighbouring brick); '// &
           str(migrated)//' bodies changed rank, '//str(messages)// &
           ' messages, '//str(bytes)//' bytes'
         write (*, '(a)') '  window costs         '//str(cross_wall(1), '(es9.3)')//' s starting windows (migration, '// &
