@@ -244,7 +244,7 @@ contains
     type(error_t), intent(inout) :: err
 #ifdef RICOCHET_USE_MPI
     integer, allocatable :: recv_counts(:), send_first(:), recv_first(:)
-    integer :: r, ierror
+    integer :: ierror
 #endif
     if (size(counts) /= self%n_ranks .or. sum(int(counts, i8)) /= int(size(send), i8)) then
       call err%set(ERR_INTERNAL, 'parallel: alltoallv with '//str(size(counts))//' counts summing to '// &
@@ -256,12 +256,8 @@ contains
     if (self%n_ranks > 1) then
       allocate (recv_counts(0:self%n_ranks - 1), send_first(0:self%n_ranks - 1), recv_first(0:self%n_ranks - 1))
       call MPI_Alltoall(counts, 1, MPI_INTEGER, recv_counts, 1, MPI_INTEGER, self%comm, ierror)
-      send_first(0) = 0
-      recv_first(0) = 0
-      do r = 1, self%n_ranks - 1
-        send_first(r) = send_first(r - 1) + counts(r - 1)
-        recv_first(r) = recv_first(r - 1) + recv_counts(r - 1)
-      end do
+      send_first = exclusive_prefix(counts)
+      recv_first = exclusive_prefix(recv_counts)
       allocate (recv(sum(recv_counts)))
       if (ierror == MPI_SUCCESS) call MPI_Alltoallv(send, counts, send_first, MPI_DOUBLE_PRECISION, recv, &
                                                     recv_counts, recv_first, MPI_DOUBLE_PRECISION, self%comm, ierror)
@@ -457,7 +453,7 @@ contains
     character(len=:), allocatable, intent(out) :: all(:)
     integer, allocatable :: lengths(:), all_lengths(:), n_lines(:), n_chars(:), line_at(:), char_at(:)
     character(len=:), allocatable :: flat, all_flat
-    integer :: k, r, o, width, total
+    integer :: k, o, width, total
     allocate (lengths(size(mine)))
     do k = 1, size(mine)
       lengths(k) = len_trim(mine(k))
@@ -478,12 +474,8 @@ contains
     end if
 #endif
     allocate (line_at(0:self%n_ranks - 1), char_at(0:self%n_ranks - 1))
-    line_at(0) = 0
-    char_at(0) = 0
-    do r = 1, self%n_ranks - 1
-      line_at(r) = line_at(r - 1) + n_lines(r - 1)
-      char_at(r) = char_at(r - 1) + n_chars(r - 1)
-    end do
+    line_at = exclusive_prefix(n_lines)
+    char_at = exclusive_prefix(n_chars)
     total = sum(n_chars)
     allocate (all_lengths(sum(n_lines)))
     allocate (character(len=total) :: all_flat)
@@ -506,6 +498,19 @@ contains
       o = o + all_lengths(k)
     end do
   end subroutine parallel_allgather_lines
+
+  !> Where each rank's part starts in a concatenation of parts of counts(:) items (0-based
+  !> displacements, as MPI's v-collectives take them).
+  pure function exclusive_prefix(counts) result(first)
+    integer, intent(in) :: counts(:)
+    integer :: first(size(counts))
+    integer :: r
+    if (size(counts) == 0) return
+    first(1) = 0
+    do r = 2, size(counts)
+      first(r) = first(r - 1) + counts(r - 1)
+    end do
+  end function exclusive_prefix
 
   subroutine bcast_string(self, text, root)
     class(parallel_t), intent(in) :: self
