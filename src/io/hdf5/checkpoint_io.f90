@@ -127,21 +127,22 @@ contains
     call h5u_write_strings(group_id, 'counter_names', counter_names, n_counters, 0_i8, err)
     call h5u_close_group(group_id)
 
-    ! What made the bodies: the shapes' geometry and the effective deck (rank 0 writes them).
+    ! What made the bodies: the shapes' geometry (rank 0 writes the digests) and the effective
+    ! deck (every rank a share of the lines)
     call h5u_create_group(file_id, 'shapes', group_id, err)
     call h5u_write(group_id, 'digest', shape_digests, n_shapes, 0_i8, err)
     ! (the string width is part of the collective dataset creation: the same on every rank)
     if (allocated(meta%shape_labels)) then
-      call write_rows_on_root(group_id, 'label', meta%shape_labels, n_shapes)
+      call write_rows_shared(group_id, 'label', meta%shape_labels, n_shapes)
     else
-      call write_rows_on_root(group_id, 'label', [character(len=1) ::], n_shapes)
+      call write_rows_shared(group_id, 'label', [character(len=1) ::], n_shapes)
     end if
     call h5u_close_group(group_id)
     call h5u_create_group(file_id, 'deck', group_id, err)
     if (allocated(meta%deck_lines)) then
-      call write_rows_on_root(group_id, 'effective', meta%deck_lines, n_lines)
+      call write_rows_shared(group_id, 'effective', meta%deck_lines, n_lines)
     else
-      call write_rows_on_root(group_id, 'effective', [character(len=1) ::], n_lines)
+      call write_rows_shared(group_id, 'effective', [character(len=1) ::], n_lines)
     end if
     call h5u_close_group(group_id)
 
@@ -177,24 +178,40 @@ contains
 
   contains
 
-    !> Rank 0 writes every line (as narrow as the longest), the others take part with none.
-    subroutine write_rows_on_root(group_id, name, lines, n_rows)
+    !> Every rank holds every line and writes its share, rows n_rows r/p + 1 to
+    !> n_rows (r + 1)/p, all as narrow as the longest line (the string width is part of
+    !> the collective dataset creation: the same on every rank). Rank 0 wrote them all
+    !> before: the effective deck of 100,000 bodies (2 million lines) was a serial second
+    !> of every checkpoint, copied once more to make it narrow (the lines are made as
+    !> narrow as the longest already: used as they are then).
+    subroutine write_rows_shared(group_id, name, lines, n_rows)
       integer(hid_t), intent(in) :: group_id
-      character(len=*), intent(in) :: name
       character(len=*), intent(in) :: lines(:)
+      character(len=*), intent(in) :: name
       integer(i8), intent(in) :: n_rows
       character(len=:), allocatable :: narrow(:)
-      if (n_rows > 0) then
-        narrow = compact(lines)
-      else
-        allocate (character(len=1) :: narrow(0))
+      integer(i8) :: first, last
+      integer :: i, width
+      first = 0
+      last = 0
+      if (n_rows > 0 .and. size(lines, kind=i8) >= n_rows) then
+        first = n_rows*par%rank/par%n_ranks
+        last = n_rows*(par%rank + 1)/par%n_ranks
       end if
-      if (par%is_root()) then
-        call h5u_write_strings(group_id, name, narrow, n_rows, 0_i8, err)
+      width = 1
+      do i = 1, int(min(n_rows, size(lines, kind=i8)))
+        width = max(width, len_trim(lines(i)))
+      end do
+      if (width == len(lines)) then
+        call h5u_write_strings(group_id, name, lines(first + 1:last), n_rows, first, err)
       else
-        call h5u_write_strings(group_id, name, narrow(1:0), n_rows, 0_i8, err)
+        allocate (character(len=width) :: narrow(last - first))
+        do i = 1, int(last - first)
+          narrow(i) = lines(first + i)
+        end do
+        call h5u_write_strings(group_id, name, narrow, n_rows, first, err)
       end if
-    end subroutine write_rows_on_root
+    end subroutine write_rows_shared
   end subroutine write_checkpoint
 
   !> Reads a whole checkpoint on every rank (collective): all bodies come back as owned
