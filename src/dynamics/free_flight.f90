@@ -261,8 +261,6 @@ contains
     end do
   end subroutine flight_unpack_anchors
 
-  !> Body i's flight record from words (one record of pack_anchors), bit for bit: a body
-  !> whose new trajectory another rank computed (a cross-rank impact).
   !> dst becomes a copy of self, its arrays reused where they have the shape already. (The
   !> intrinsic assignment of the type allocates every array afresh: 40 MB of rotors for
   !> 50,000 bodies, page faults and all, at every cross-rank window's save and restore.)
@@ -344,6 +342,8 @@ contains
     call move_alloc(anchored, self%anchored)
   end subroutine flight_grow
 
+  !> Body i's flight record from words (one record of pack_anchors), bit for bit: a body
+  !> whose new trajectory another rank computed (a cross-rank impact).
   subroutine flight_set_record(self, i, words)
     class(free_flight_t), intent(inout) :: self
     integer, intent(in) :: i

@@ -349,7 +349,7 @@ contains
     integer :: n, i, ni, k, j, slot, n_found, n_new_slots, n_moved, n_kept_now, n_seeds
     integer, allocatable :: old_of(:), dropped(:), new_slots(:), moved(:), seeds(:)
     integer(i8), allocatable :: changes(:)
-    real(dp), allocatable :: expiry(:), region_x(:, :), released_at(:)
+    real(dp), allocatable :: expiry(:), region_x(:, :), released_at(:), state_time(:)
     integer, allocatable :: island_of(:)
     logical :: kept
     n = bodies%n_owned + bodies%n_ghost
@@ -406,13 +406,13 @@ contains
     ! (a row that stayed keeps the time its state was evaluated at: at a full start every
     ! row was evaluated at t, at a light start's arrivals most rows are where their last
     ! event left them, and sync must evaluate those before they are used at t)
-    allocate (released_at(n))
+    allocate (state_time(n))
     do ni = 1, n
-      released_at(ni) = t
+      state_time(ni) = t
       i = old_of(ni)
-      if (i > 0 .and. i <= size(self%state_time)) released_at(ni) = self%state_time(i)
+      if (i > 0 .and. i <= size(self%state_time)) state_time(ni) = self%state_time(i)
     end do
-    call move_alloc(released_at, self%state_time)
+    call move_alloc(state_time, self%state_time)
     deallocate (self%version, self%mark)
     allocate (self%version(max(n, 1)), self%mark(n))
     self%version = 0

@@ -280,7 +280,7 @@ contains
     logical, allocatable, intent(out) :: frontier(:)
     type(error_t), intent(inout) :: err
     integer(i8), allocatable :: payload(:, :), sent(:, :), received(:, :), words(:, :), held(:, :), versions(:)
-    integer(i8), allocatable :: old_keys(:, :), old_sorted(:, :), old_local(:), old_owner(:), ghost_versions(:)
+    integer(i8), allocatable :: old_sorted(:, :), old_local(:), old_owner(:), ghost_versions(:)
     integer, allocatable :: rows(:), order(:), new_index(:), old_order(:)
     integer :: n_words, i, k, n_owned, n_halo, mid, n_old_owned, n_old_ghosts, r
     logical :: rebuilt
@@ -291,14 +291,12 @@ contains
     n_old_ghosts = self%bodies%n_ghost
     if (.not. allocated(self%ghost_versions)) allocate (self%ghost_versions(0))
     if (size(self%ghost_versions) /= n_old_ghosts) n_old_ghosts = 0
-    allocate (old_keys(1, n_old_ghosts), old_local(n_old_ghosts), old_owner(n_old_ghosts))
+    allocate (old_local(n_old_ghosts), old_owner(n_old_ghosts))
     if (n_old_ghosts > 0) then
-      old_keys(1, :) = self%bodies%gid(n_old_owned + 1:n_old_owned + n_old_ghosts)
       old_local = self%events%version(n_old_owned + 1:n_old_owned + n_old_ghosts)
       old_owner = self%ghost_versions
     end if
-    call sort_index_keys(old_keys, old_order)
-    old_sorted = old_keys(:, old_order)
+    call gid_index(self%bodies%gid(n_old_owned + 1:n_old_owned + n_old_ghosts), old_sorted, old_order)
     ! every owned body at self%time
     call evaluate_owned(self)
     call self%propagator%pack_anchors(self%bodies%n_owned, payload)
@@ -322,10 +320,7 @@ contains
     end if
     n_halo = self%bodies%n_ghost
     ! the fixed bodies no row holds yet (a search of each static's gid among the rows held)
-    allocate (held(1, n_owned + n_halo))
-    held(1, :) = self%bodies%gid(1:n_owned + n_halo)
-    call sort_index_keys(held, order)
-    held = held(:, order)
+    call gid_index(self%bodies%gid(1:n_owned + n_halo), held, order)
     allocate (rows(0))
     do k = 1, self%statics%n_owned
       if (find_key(held, size(order), [self%statics%gid(k)]) == 0) rows = [rows, k]
@@ -457,11 +452,9 @@ contains
       return
     end if
     ! the ghost rows by gid
-    allocate (keys(1, ng), take(ng), new_rows(0))
+    allocate (take(ng), new_rows(0))
     take = .false.
-    if (ng > 0) keys(1, :) = self%bodies%gid(n0 + 1:n0 + ng)
-    call sort_index_keys(keys, order)
-    keys = keys(:, order)
+    call gid_index(self%bodies%gid(n0 + 1:n0 + ng), keys, order)
     call unpack_blocks(recv, arrived, err, got)
     do k = 1, merge(arrived%n_owned, 0, err%ok())
       mid = find_key(keys, ng, [arrived%gid(k)])
@@ -483,9 +476,7 @@ contains
     if (size(new_rows) > 0) then
       ! the new ghosts appended in global-id order, with their records, versions and owners;
       ! the loop takes them as arrivals (every other row keeps its number)
-      allocate (new_keys(1, size(new_rows)))
-      new_keys(1, :) = arrived%gid(new_rows)
-      call sort_index_keys(new_keys, new_order)
+      call gid_index(arrived%gid(new_rows), new_keys, new_order)
       new_rows = new_rows(new_order)
       n_before = self%bodies%n_total()
       call self%bodies%append_rows(arrived, new_rows, .true.)
@@ -647,10 +638,7 @@ contains
     n0 = self%bodies%n_owned
     ng = self%bodies%n_ghost
     if (ng == 0) return
-    allocate (keys(1, ng))
-    keys(1, :) = self%bodies%gid(n0 + 1:n0 + ng)
-    call sort_index_keys(keys, order)
-    keys = keys(:, order)
+    call gid_index(self%bodies%gid(n0 + 1:n0 + ng), keys, order)
     do k = 1, size(recv)/w
       mid = find_key(keys, ng, [transfer(recv(w*(k - 1) + 1), 1_i8)])
       if (mid > 0) changed_at(n0 + order(mid)) = min(changed_at(n0 + order(mid)), recv(w*(k - 1) + 2))
@@ -700,10 +688,7 @@ contains
     call unpack_blocks(recv, arrived, err, got)
     if (err%ok() .and. arrived%n_owned > 0) then
       ! the owned rows by gid (a search per arrival, not a scan of every owned row)
-      allocate (keys(1, n0))
-      keys(1, :) = self%bodies%gid(1:n0)
-      call sort_index_keys(keys, order)
-      keys = keys(:, order)
+      call gid_index(self%bodies%gid(1:n0), keys, order)
     end if
     do k = 1, merge(arrived%n_owned, 0, err%ok())
       row = 0
@@ -730,5 +715,16 @@ contains
       if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank impact failed on another rank')
     end if
   end subroutine send_ghost_updates
+
+  !> Global ids sorted for find_key (keys(1, m)), order(m) the position in gids of keys(1, m).
+  subroutine gid_index(gids, keys, order)
+    integer(i8), intent(in) :: gids(:)
+    integer(i8), allocatable, intent(out) :: keys(:, :)
+    integer, allocatable, intent(out) :: order(:)
+    allocate (keys(1, size(gids)))
+    keys(1, :) = gids
+    call sort_index_keys(keys, order)
+    keys = keys(:, order)
+  end subroutine gid_index
 
 end submodule simulation_cross_windows
