@@ -33,7 +33,7 @@ module contact_solver
   use impulse_solver, only: contact_t, group_members
   implicit none
   private
-  public :: pgs_stats_t, pgs_setup_t, solve_contacts_pgs, tangent_basis
+  public :: pgs_stats_t, pgs_setup_t, solve_contacts_pgs, tangent_basis, friction_step, decompose2
 
   type :: pgs_stats_t
     integer :: solves = 0              !< calls
@@ -50,6 +50,10 @@ module contact_solver
     logical :: ready = .false.
     real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), turn_a(:, :, :), turn_b(:, :, :)
     real(dp), allocatable :: arm_a(:, :), arm_b(:, :), reach(:)
+    !> per contact: 1/k_nn; the tangential velocity change per unit normal impulse (t1.K n,
+    !> t2.K n); K_tt's inverse, eigenvalues (larger first) and its first eigenvector (the
+    !> sliding solve's secular equation in closed form)
+    real(dp), allocatable :: inv_k_nn(:), k_tn(:, :), inv_k_tt(:, :, :), eig_tt(:, :), axis_tt(:, :)
     integer, allocatable :: members(:), side(:, :)
     integer :: n_members = 0
   contains
@@ -116,7 +120,8 @@ contains
     m = size(contacts)
     call setup%free()
     allocate (setup%basis(3, 3, m), setup%k_nn(m), setup%k_tt(2, 2, m), setup%turn_a(3, 3, m), &
-              setup%turn_b(3, 3, m), setup%arm_a(3, m), setup%arm_b(3, m))
+              setup%turn_b(3, 3, m), setup%arm_a(3, m), setup%arm_b(3, m), setup%inv_k_nn(m), setup%k_tn(2, m), &
+              setup%inv_k_tt(2, 2, m), setup%eig_tt(2, m), setup%axis_tt(2, m))
     associate (basis => setup%basis)
       do c = 1, m
         setup%arm_a(:, c) = contacts(c)%point - bodies%x(:, contacts(c)%a)
@@ -130,6 +135,9 @@ contains
         k = effective_mass(bodies, contacts(c))
         setup%k_nn(c) = dot_product(basis(:, 1, c), matmul(k, basis(:, 1, c)))
         setup%k_tt(:, :, c) = matmul(transpose(basis(:, 2:3, c)), matmul(k, basis(:, 2:3, c)))
+        setup%inv_k_nn(c) = 1.0_dp/setup%k_nn(c)
+        setup%k_tn(:, c) = matmul(transpose(basis(:, 2:3, c)), matmul(k, basis(:, 1, c)))
+        call decompose2(setup%k_tt(:, :, c), setup%inv_k_tt(:, :, c), setup%eig_tt(:, c), setup%axis_tt(:, c))
       end do
     end associate
     ! The bodies of the group (moving ones), whose velocity changes per sweep end the loop:
@@ -162,7 +170,8 @@ contains
   subroutine setup_free(self)
     class(pgs_setup_t), intent(inout) :: self
     if (allocated(self%basis)) deallocate (self%basis, self%k_nn, self%k_tt, self%turn_a, self%turn_b, self%arm_a, &
-                                           self%arm_b)
+                                           self%arm_b, self%inv_k_nn, self%k_tn, self%inv_k_tt, self%eig_tt, &
+                                           self%axis_tt)
     if (allocated(self%members)) deallocate (self%members)
     if (allocated(self%side)) deallocate (self%side)
     if (allocated(self%reach)) deallocate (self%reach)
@@ -170,7 +179,10 @@ contains
     self%ready = .false.
   end subroutine setup_free
 
-  !> The warm start and the sweeps of solve_contacts_pgs over a prepared setup.
+  !> The warm start and the sweeps of solve_contacts_pgs over a prepared setup. Per contact
+  !> and sweep: its relative velocity once, the normal step, the tangential velocity after
+  !> it from the precomputed coupling k_tn (the impulse is linear in the velocities), the
+  !> friction step, and one impulse on each body.
   subroutine pgs_sweeps(bodies, contacts, impulse, tolerance, max_sweeps, stats, setup, fixed_normal, warm_applied)
     type(bodies_t), intent(inout) :: bodies
     type(contact_t), intent(in) :: contacts(:)
@@ -181,22 +193,23 @@ contains
     type(pgs_setup_t), intent(in) :: setup
     real(dp), intent(in), optional :: fixed_normal(:)
     logical, intent(in), optional :: warm_applied
-    logical :: apply_warm
+    logical :: apply_warm, tangential_only
     real(dp), allocatable :: lam(:, :), v_prev(:, :), w_prev(:, :)
-    integer :: b
-    real(dp) :: u(3), un, ut(2), dl(3), new_t(2), limit, change, p(3)
-    integer :: m, c, sweep
-    logical :: tangential_only
+    logical, allocatable :: moves_a(:), moves_b(:)
+    real(dp) :: u(3), un, ut(2), dl(3), new_t(2), change, p(3), dw(3)
+    integer :: m, c, b, sweep, ia, ib
 
     m = size(contacts)
     tangential_only = present(fixed_normal)
     apply_warm = .true.
     if (present(warm_applied)) apply_warm = .not. warm_applied
-    allocate (lam(3, m))
-    associate (basis => setup%basis, k_nn => setup%k_nn, k_tt => setup%k_tt, turn_a => setup%turn_a, &
-               turn_b => setup%turn_b, arm_a => setup%arm_a, arm_b => setup%arm_b, members => setup%members, &
-               n_members => setup%n_members, reach => setup%reach)
+    allocate (lam(3, m), moves_a(m), moves_b(m))
+    associate (basis => setup%basis, k_tt => setup%k_tt, turn_a => setup%turn_a, turn_b => setup%turn_b, &
+               arm_a => setup%arm_a, arm_b => setup%arm_b, members => setup%members, n_members => setup%n_members, &
+               reach => setup%reach, inv_k_nn => setup%inv_k_nn, k_tn => setup%k_tn)
     do c = 1, m
+      moves_a(c) = .not. bodies%fixed(contacts(c)%a)
+      moves_b(c) = .not. bodies%fixed(contacts(c)%b)
       ! the warm start in the contact's basis, put inside the cone
       lam(:, c) = matmul(transpose(basis(:, :, c)), impulse(:, c))
       if (tangential_only) lam(1, c) = fixed_normal(c)
@@ -214,33 +227,44 @@ contains
 
     allocate (v_prev(3, n_members), w_prev(3, n_members))
     do sweep = 1, max_sweeps
-      change = 0.0_dp
       do b = 1, n_members
         v_prev(:, b) = bodies%v(:, members(b))
         w_prev(:, b) = bodies%w(:, members(b))
       end do
       do c = 1, m
+        ia = contacts(c)%a
+        ib = contacts(c)%b
+        u = bodies%v(:, ib) + cross(bodies%w(:, ib), arm_b(:, c)) - bodies%v(:, ia) - cross(bodies%w(:, ia), arm_a(:, c))
         dl = 0.0_dp
-        u = contact_velocity(c)
         if (.not. tangential_only) then
-          un = dot_product(basis(:, 1, c), u)
+          un = basis(1, 1, c)*u(1) + basis(2, 1, c)*u(2) + basis(3, 1, c)*u(3)
           ! (a speculative contact may approach at up to its allowed speed)
-          dl(1) = max(lam(1, c) - (un + contacts(c)%allowed_approach)/k_nn(c), 0.0_dp) - lam(1, c)
-          if (dl(1) /= 0.0_dp) then
-            call apply_local(c, [dl(1), 0.0_dp, 0.0_dp])
-            u = contact_velocity(c)
-          end if
+          dl(1) = max(lam(1, c) - (un + contacts(c)%allowed_approach)*inv_k_nn(c), 0.0_dp) - lam(1, c)
           lam(1, c) = lam(1, c) + dl(1)
         end if
         if (contacts(c)%friction > 0.0_dp) then
-          ut = [dot_product(basis(:, 2, c), u), dot_product(basis(:, 3, c), u)]
-          limit = contacts(c)%friction*lam(1, c)
-          new_t = friction_update(k_tt(:, :, c), lam(2:3, c), ut, limit)
+          ut(1) = basis(1, 2, c)*u(1) + basis(2, 2, c)*u(2) + basis(3, 2, c)*u(3) + k_tn(1, c)*dl(1)
+          ut(2) = basis(1, 3, c)*u(1) + basis(2, 3, c)*u(2) + basis(3, 3, c)*u(3) + k_tn(2, c)*dl(1)
+          new_t = friction_step(k_tt(:, :, c), setup%inv_k_tt(:, :, c), setup%eig_tt(:, c), setup%axis_tt(:, c), &
+                                lam(2:3, c), ut, contacts(c)%friction*lam(1, c))
           dl(2:3) = new_t - lam(2:3, c)
-          if (any(dl(2:3) /= 0.0_dp)) call apply_local(c, [0.0_dp, dl(2), dl(3)])
           lam(2:3, c) = new_t
         end if
+        if (dl(1) == 0.0_dp .and. dl(2) == 0.0_dp .and. dl(3) == 0.0_dp) cycle
+        ! impulse basis dl on b, its opposite on a
+        p = basis(:, 1, c)*dl(1) + basis(:, 2, c)*dl(2) + basis(:, 3, c)*dl(3)
+        if (moves_b(c)) then
+          dw = turn_b(:, 1, c)*dl(1) + turn_b(:, 2, c)*dl(2) + turn_b(:, 3, c)*dl(3)
+          bodies%v(:, ib) = bodies%v(:, ib) + bodies%inv_mass(ib)*p
+          bodies%w(:, ib) = bodies%w(:, ib) + dw
+        end if
+        if (moves_a(c)) then
+          dw = turn_a(:, 1, c)*dl(1) + turn_a(:, 2, c)*dl(2) + turn_a(:, 3, c)*dl(3)
+          bodies%v(:, ia) = bodies%v(:, ia) - bodies%inv_mass(ia)*p
+          bodies%w(:, ia) = bodies%w(:, ia) - dw
+        end if
       end do
+      change = 0.0_dp
       do b = 1, n_members
         change = max(change, norm2(bodies%v(:, members(b)) - v_prev(:, b)) + &
                      norm2(bodies%w(:, members(b)) - w_prev(:, b))*reach(b))
@@ -254,74 +278,63 @@ contains
       impulse(:, c) = matmul(basis(:, :, c), lam(:, c))
     end do
     end associate
-
-  contains
-
-    !> Impulse basis(:, :, c) dl on b and its opposite on a (as apply, with the responses
-    !> computed once).
-    subroutine apply_local(cc, dl)
-      integer, intent(in) :: cc
-      real(dp), intent(in) :: dl(3)
-      real(dp) :: p(3)
-      p = setup%basis(:, 1, cc)*dl(1) + setup%basis(:, 2, cc)*dl(2) + setup%basis(:, 3, cc)*dl(3)
-      associate (a => contacts(cc)%a, b => contacts(cc)%b)
-        if (.not. bodies%fixed(b)) then
-          bodies%v(:, b) = bodies%v(:, b) + bodies%inv_mass(b)*p
-          bodies%w(:, b) = bodies%w(:, b) + (setup%turn_b(:, 1, cc)*dl(1) + setup%turn_b(:, 2, cc)*dl(2) + &
-                                             setup%turn_b(:, 3, cc)*dl(3))
-        end if
-        if (.not. bodies%fixed(a)) then
-          bodies%v(:, a) = bodies%v(:, a) - bodies%inv_mass(a)*p
-          bodies%w(:, a) = bodies%w(:, a) - (setup%turn_a(:, 1, cc)*dl(1) + setup%turn_a(:, 2, cc)*dl(2) + &
-                                             setup%turn_a(:, 3, cc)*dl(3))
-        end if
-      end associate
-    end subroutine apply_local
-
-    !> Velocity of b minus velocity of a at contact cc's point [m/s] (arms fixed in the solve).
-    pure function contact_velocity(cc) result(uu)
-      integer, intent(in) :: cc
-      real(dp) :: uu(3)
-      associate (a => contacts(cc)%a, b => contacts(cc)%b)
-        uu = bodies%v(:, b) + cross(bodies%w(:, b), setup%arm_b(:, cc)) - bodies%v(:, a) - &
-             cross(bodies%w(:, a), setup%arm_a(:, cc))
-      end associate
-    end function contact_velocity
-
   end subroutine pgs_sweeps
 
   !> New tangential impulse of one contact: minimises 1/2 x.K x + x.g over |x| <= limit,
   !> with g = u_t - K lambda_old (the energy change of the contact as a function of its
   !> new impulse x). Inside: x = -K^(-1) g. On the circle: x = -(K + nu I)^(-1) g with nu
   !> the root of |x(nu)| = limit, found by Newton on 1/|x(nu)| - 1/limit (convex and
-  !> increasing in nu, so Newton from below converges monotonically; Moré and Sorensen).
-  pure function friction_update(k, lambda_old, ut, limit) result(x)
-    real(dp), intent(in) :: k(2, 2), lambda_old(2), ut(2), limit
-    real(dp) :: x(2), g(2), shifted(2, 2), dx(2), phi, dphi, nu, size_x
+  !> increasing in nu, so Newton from below converges monotonically; More and Sorensen), in
+  !> K's eigenbasis (eig, axis: decompose2), where (K + nu I)^(-1) is diagonal.
+  pure function friction_step(k, inv_k, eig, axis, lambda_old, ut, limit) result(x)
+    real(dp), intent(in) :: k(2, 2), inv_k(2, 2), eig(2), axis(2), lambda_old(2), ut(2), limit
+    real(dp) :: x(2), g(2), gr(2), xr(2), d(2), phi, dphi, nu, size_x
     integer :: iteration
-    g = ut - matmul(k, lambda_old)
-    x = -solve2(k, g)
-    if (norm2(x) <= limit) return
-    if (limit <= 0.0_dp .or. norm2(g) == 0.0_dp) then
+    g(1) = ut(1) - (k(1, 1)*lambda_old(1) + k(1, 2)*lambda_old(2))
+    g(2) = ut(2) - (k(2, 1)*lambda_old(1) + k(2, 2)*lambda_old(2))
+    x(1) = -(inv_k(1, 1)*g(1) + inv_k(1, 2)*g(2))
+    x(2) = -(inv_k(2, 1)*g(1) + inv_k(2, 2)*g(2))
+    if (x(1)**2 + x(2)**2 <= limit**2) return
+    if (limit <= 0.0_dp .or. (g(1) == 0.0_dp .and. g(2) == 0.0_dp)) then
       x = 0.0_dp
       return
     end if
+    ! g in the eigenbasis: components along (axis(1), axis(2)) and (-axis(2), axis(1))
+    gr(1) = axis(1)*g(1) + axis(2)*g(2)
+    gr(2) = -axis(2)*g(1) + axis(1)*g(2)
     nu = 0.0_dp
     do iteration = 1, 50
-      shifted = k
-      shifted(1, 1) = shifted(1, 1) + nu
-      shifted(2, 2) = shifted(2, 2) + nu
-      x = -solve2(shifted, g)
-      size_x = norm2(x)
-      ! d|x|/dnu = -x.(K + nu I)^(-1) x / |x|
-      dx = solve2(shifted, x)
+      d = eig + nu
+      xr = -gr/d
+      size_x = sqrt(xr(1)**2 + xr(2)**2)
       phi = 1.0_dp/size_x - 1.0_dp/limit
-      dphi = dot_product(x, dx)/size_x**3
       if (abs(phi) <= 1.0e-14_dp/limit) exit
+      ! d|x|/dnu = -x.(K + nu I)^(-1) x / |x|
+      dphi = (xr(1)**2/d(1) + xr(2)**2/d(2))/size_x**3
       nu = max(nu - phi/dphi, 0.0_dp)
     end do
-    x = x*(limit/norm2(x))   ! on the circle to round-off
-  end function friction_update
+    xr = xr*(limit/size_x)   ! on the circle to round-off
+    x(1) = axis(1)*xr(1) - axis(2)*xr(2)
+    x(2) = axis(2)*xr(1) + axis(1)*xr(2)
+  end function friction_step
+
+  !> A symmetric positive definite 2x2 k: its inverse, its eigenvalues (larger first) and
+  !> the unit eigenvector of the larger one.
+  pure subroutine decompose2(k, inv_k, eig, axis)
+    real(dp), intent(in) :: k(2, 2)
+    real(dp), intent(out) :: inv_k(2, 2), eig(2), axis(2)
+    real(dp) :: det, q, angle
+    q = 0.5_dp*(k(1, 2) + k(2, 1))
+    det = k(1, 1)*k(2, 2) - q*q
+    inv_k(1, 1) = k(2, 2)/det
+    inv_k(2, 2) = k(1, 1)/det
+    inv_k(1, 2) = -q/det
+    inv_k(2, 1) = -q/det
+    angle = 0.5_dp*atan2(2.0_dp*q, k(1, 1) - k(2, 2))
+    axis = [cos(angle), sin(angle)]
+    eig(1) = k(1, 1)*axis(1)**2 + 2.0_dp*q*axis(1)*axis(2) + k(2, 2)*axis(2)**2
+    eig(2) = k(1, 1)*axis(2)**2 - 2.0_dp*q*axis(1)*axis(2) + k(2, 2)*axis(1)**2
+  end subroutine decompose2
 
   pure subroutine clamp_to_cone(t, limit)
     real(dp), intent(inout) :: t(2)
@@ -336,15 +349,6 @@ contains
       end if
     end if
   end subroutine clamp_to_cone
-
-  !> x = A^(-1) b for a symmetric positive definite 2x2 A.
-  pure function solve2(a, b) result(x)
-    real(dp), intent(in) :: a(2, 2), b(2)
-    real(dp) :: x(2), det
-    det = a(1, 1)*a(2, 2) - a(1, 2)*a(2, 1)
-    x(1) = (a(2, 2)*b(1) - a(1, 2)*b(2))/det
-    x(2) = (a(1, 1)*b(2) - a(2, 1)*b(1))/det
-  end function solve2
 
   !> The impulse p acts on b, -p on a (fixed bodies have zero inverse mass and inertia).
   pure subroutine apply(bodies, c, p)
