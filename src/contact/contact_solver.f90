@@ -194,7 +194,7 @@ contains
     real(dp), intent(in), optional :: fixed_normal(:)
     logical, intent(in), optional :: warm_applied
     logical :: apply_warm, tangential_only
-    real(dp), allocatable :: lam(:, :), v_prev(:, :), w_prev(:, :)
+    real(dp), allocatable :: lam(:, :), v_prev(:, :), w_prev(:, :), nu_last(:)
     logical, allocatable :: moves_a(:), moves_b(:)
     real(dp) :: u(3), un, ut(2), dl(3), new_t(2), change, p(3), dw(3)
     integer :: m, c, b, sweep, ia, ib
@@ -203,7 +203,8 @@ contains
     tangential_only = present(fixed_normal)
     apply_warm = .true.
     if (present(warm_applied)) apply_warm = .not. warm_applied
-    allocate (lam(3, m), moves_a(m), moves_b(m))
+    allocate (lam(3, m), moves_a(m), moves_b(m), nu_last(m))
+    nu_last = 0.0_dp
     associate (basis => setup%basis, k_tt => setup%k_tt, turn_a => setup%turn_a, turn_b => setup%turn_b, &
                arm_a => setup%arm_a, arm_b => setup%arm_b, members => setup%members, n_members => setup%n_members, &
                reach => setup%reach, inv_k_nn => setup%inv_k_nn, k_tn => setup%k_tn)
@@ -246,7 +247,7 @@ contains
           ut(1) = basis(1, 2, c)*u(1) + basis(2, 2, c)*u(2) + basis(3, 2, c)*u(3) + k_tn(1, c)*dl(1)
           ut(2) = basis(1, 3, c)*u(1) + basis(2, 3, c)*u(2) + basis(3, 3, c)*u(3) + k_tn(2, c)*dl(1)
           new_t = friction_step(k_tt(:, :, c), setup%inv_k_tt(:, :, c), setup%eig_tt(:, c), setup%axis_tt(:, c), &
-                                lam(2:3, c), ut, contacts(c)%friction*lam(1, c))
+                                lam(2:3, c), ut, contacts(c)%friction*lam(1, c), nu_last(c))
           dl(2:3) = new_t - lam(2:3, c)
           lam(2:3, c) = new_t
         end if
@@ -286,8 +287,13 @@ contains
   !> the root of |x(nu)| = limit, found by Newton on 1/|x(nu)| - 1/limit (convex and
   !> increasing in nu, so Newton from below converges monotonically; More and Sorensen), in
   !> K's eigenbasis (eig, axis: decompose2), where (K + nu I)^(-1) is diagonal.
-  pure function friction_step(k, inv_k, eig, axis, lambda_old, ut, limit) result(x)
+  function friction_step(k, inv_k, eig, axis, lambda_old, ut, limit, nu_last) result(x)
     real(dp), intent(in) :: k(2, 2), inv_k(2, 2), eig(2), axis(2), lambda_old(2), ut(2), limit
+    !> the shift nu of this contact's last sliding step (in), of this one (out): the Newton
+    !> iteration starts there (it converges monotonically from either side of the root, the
+    !> function being convex and increasing; in a converging solve a contact's shift changes
+    !> little from sweep to sweep, so one or two iterations are left instead of up to ten)
+    real(dp), intent(inout), optional :: nu_last
     real(dp) :: x(2), g(2), gr(2), xr(2), d(2), phi, dphi, nu, size_x
     integer :: iteration
     g(1) = ut(1) - (k(1, 1)*lambda_old(1) + k(1, 2)*lambda_old(2))
@@ -303,6 +309,7 @@ contains
     gr(1) = axis(1)*g(1) + axis(2)*g(2)
     gr(2) = -axis(2)*g(1) + axis(1)*g(2)
     nu = 0.0_dp
+    if (present(nu_last)) nu = max(nu_last, 0.0_dp)
     do iteration = 1, 50
       d = eig + nu
       xr = -gr/d
@@ -313,6 +320,7 @@ contains
       dphi = (xr(1)**2/d(1) + xr(2)**2/d(2))/size_x**3
       nu = max(nu - phi/dphi, 0.0_dp)
     end do
+    if (present(nu_last)) nu_last = nu
     xr = xr*(limit/size_x)   ! on the circle to round-off
     x(1) = axis(1)*xr(1) - axis(2)*xr(2)
     x(2) = axis(2)*xr(1) + axis(1)*xr(2)

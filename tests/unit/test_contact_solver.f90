@@ -1,6 +1,7 @@
 !> Projected Gauss-Seidel with Coulomb friction (contact/contact_solver): the per-contact
 !> friction step against its optimality conditions on random anisotropic contacts (with a
-!> negative control: scaling the stick impulse onto the circle fails them), the 2x2 eigen
+!> negative control: scaling the stick impulse onto the circle fails them; and started from
+!> a guessed shift, as the sweeps start it from the contact's last one), the 2x2 eigen
 !> decomposition it uses, and whole solves with closed-form answers: a cube held at rest
 !> on a floor by static friction, and a cube sliding on it (v_x drops by exactly mu g h, no
 !> tipping, no bounce).
@@ -20,6 +21,7 @@ program test_contact_solver
   real(dp) :: k(2, 2), inv_k(2, 2), eig(2), axis(2), rot(2, 2), lambda_old(2), ut(2), limit, x(2), g(2), r(2)
   real(dp) :: angle, scale, worst_kkt, worst_cone, worst_sign, worst_sample, f_x, f_s, y(2), stick(2)
   real(dp), allocatable :: impulse(:, :)
+  real(dp) :: nu_guess, x_warm(2), worst_warm
   integer :: trial, s, on_circle, control_fails
   real(dp), parameter :: h = 0.01_dp, g_acc = 9.81_dp, mu = 0.5_dp
   real(dp), parameter :: pi = acos(-1.0_dp)
@@ -36,6 +38,7 @@ program test_contact_solver
   worst_cone = 0.0_dp
   worst_sign = 0.0_dp
   worst_sample = 0.0_dp
+  worst_warm = 0.0_dp
   on_circle = 0
   control_fails = 0
   do trial = 1, 4000
@@ -49,6 +52,11 @@ program test_contact_solver
     ut = 4.0_dp*[rng%uniform() - 0.5_dp, rng%uniform() - 0.5_dp]
     limit = 2.0_dp*rng%uniform()
     x = friction_step(k, inv_k, eig, axis, lambda_old, ut, limit)
+    ! started from another contact's shift (below or above the root, up to 100x the
+    ! eigenvalues): the same step, to the Newton iteration's tolerance
+    nu_guess = 10.0_dp**(4.0_dp*rng%uniform() - 2.0_dp)*eig(1)
+    x_warm = friction_step(k, inv_k, eig, axis, lambda_old, ut, limit, nu_guess)
+    worst_warm = max(worst_warm, norm2(x_warm - x)/max(limit, tiny(1.0_dp)))
     g = ut - matmul(k, lambda_old)
     scale = max(norm2(g), maxval(abs(k))*limit, tiny(1.0_dp))
     r = matmul(k, x) + g
@@ -79,6 +87,8 @@ program test_contact_solver
   call check(worst_sign <= 1.0e-12_dp, 'friction step: sliding friction opposes the slip (nu >= 0)')
   call check(worst_sample <= 1.0e-12_dp, 'friction step: no sampled point of the circle does better')
   call check(control_fails > 100, 'negative control: the stick impulse scaled onto the circle is not optimal')
+  call check_close(worst_warm, 0.0_dp, 0.0_dp, 'friction step started from a guessed shift: the same step', &
+                   atol=1.0e-10_dp)
 
   ! 2. decompose2: K rebuilt from its eigenpairs, and its inverse (round-off of O(1) entries).
   k = reshape([2.0_dp, 0.7_dp, 0.7_dp, 0.5_dp], [2, 2])
