@@ -10,7 +10,7 @@
 !> output_group, body_group).
 module namelist_source
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use, intrinsic :: iso_c_binding, only: c_char, c_ptr, c_double, c_null_char, c_null_ptr
+  use, intrinsic :: iso_c_binding, only: c_char, c_ptr, c_double, c_int, c_null_char, c_null_ptr
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INPUT, ERR_IO
   use string_utils, only: str, lower, name_index
@@ -1095,7 +1095,7 @@ contains
     logical :: io, doubt, ok
     io = by_io
     if (.not. io) then
-      write (buffer, '(es48.20e4)') x
+      call digits21(x, buffer)
       call split_mantissa(buffer, exact, e_exact)
     end if
     ! Near the top of the range fewer digits could round up past huge() and overflow.
@@ -1179,6 +1179,33 @@ contains
     end function try
   end subroutine shortest_digits
 
+  !> x (finite, > 0) as 'd.dddddddddddddddddddde+xx': 21 significant digits, correctly
+  !> rounded (C's printf, exact as the ES edit descriptor is; decimal_digits.c).
+  subroutine digits21(x, buffer)
+    real(dp), intent(in) :: x
+    character(len=*), intent(out) :: buffer
+    interface
+      function c_digits21(value, text, size) bind(c, name='ricochet_decimal_digits21') result(length)
+        import :: c_double, c_char, c_int
+        real(c_double), value :: value
+        character(kind=c_char), intent(out) :: text(*)
+        integer(c_int), value :: size
+        integer(c_int) :: length
+      end function c_digits21
+    end interface
+    character(kind=c_char) :: text(48)
+    integer :: n, k
+    n = c_digits21(real(x, c_double), text, int(size(text), c_int))
+    buffer = ' '
+    if (n <= 0) then
+      write (buffer, '(es48.20e4)') x     ! (not reached for finite x: the Fortran edit)
+      return
+    end if
+    do k = 1, min(n, len(buffer))
+      buffer(k:k) = text(k)
+    end do
+  end subroutine digits21
+
   !> The digits (no dot) and the exponent of an ES-edited positive number ('1.25E+0003'),
   !> read without formatted I/O.
   subroutine split_mantissa(edited, mantissa, exponent)
@@ -1212,7 +1239,34 @@ contains
         real(c_double) :: value
       end function c_strtod
     end interface
-    reads_back = c_strtod('0.'//d//'e'//int_text(e + 1)//c_null_char, c_null_ptr) == x
+    ! the candidate '0.<d>e<e + 1>' in a fixed buffer (no heap strings: 4 of these per real)
+    character(kind=c_char) :: text(48)
+    integer :: k, n, m, first
+    text(1) = '0'
+    text(2) = '.'
+    n = 2
+    do k = 1, len(d)
+      n = n + 1
+      text(n) = d(k:k)
+    end do
+    n = n + 1
+    text(n) = 'e'
+    m = e + 1
+    if (m < 0) then
+      n = n + 1
+      text(n) = '-'
+      m = -m
+    end if
+    first = n + 1
+    do
+      n = n + 1
+      text(n) = achar(iachar('0') + mod(m, 10))
+      m = m/10
+      if (m == 0) exit
+    end do
+    text(first:n) = text(n:first:-1)
+    text(n + 1) = c_null_char
+    reads_back = c_strtod(text, c_null_ptr) == x
   end function reads_back
 
   !> Deck text of the decimal d.ddd x 10^exponent (d: significant digits, no trailing zero
@@ -1240,15 +1294,21 @@ contains
   pure function int_text(i) result(text)
     integer, intent(in) :: i
     character(len=:), allocatable :: text
-    integer :: m
+    character(len=12) :: buffer
+    integer :: m, k
     m = abs(i)
-    text = ''
+    k = len(buffer) + 1
     do
-      text = achar(iachar('0') + mod(m, 10))//text
+      k = k - 1
+      buffer(k:k) = achar(iachar('0') + mod(m, 10))
       m = m/10
       if (m == 0) exit
     end do
-    if (i < 0) text = '-'//text
+    if (i < 0) then
+      k = k - 1
+      buffer(k:k) = '-'
+    end if
+    text = buffer(k:)
   end function int_text
 
   ! ---------------------------------------------------------------------------------------
