@@ -48,9 +48,9 @@ module contact_solver
   !> and the moving bodies of the group with each one's reach.
   type :: pgs_setup_t
     logical :: ready = .false.
-    real(dp), allocatable :: basis(:, :, :), k_nn(:), k_tt(:, :, :), turn_a(:, :, :), turn_b(:, :, :)
+    real(dp), allocatable :: basis(:, :, :), k_tt(:, :, :), turn_a(:, :, :), turn_b(:, :, :)
     real(dp), allocatable :: arm_a(:, :), arm_b(:, :), reach(:)
-    !> per contact: 1/k_nn; the tangential velocity change per unit normal impulse (t1.K n,
+    !> per contact: 1/(n.K n); the tangential velocity change per unit normal impulse (t1.K n,
     !> t2.K n); K_tt's inverse, eigenvalues (larger first) and its first eigenvector (the
     !> sliding solve's secular equation in closed form)
     real(dp), allocatable :: inv_k_nn(:), k_tn(:, :), inv_k_tt(:, :, :), eig_tt(:, :), axis_tt(:, :)
@@ -119,7 +119,7 @@ contains
     integer :: m, c
     m = size(contacts)
     call setup%free()
-    allocate (setup%basis(3, 3, m), setup%k_nn(m), setup%k_tt(2, 2, m), setup%turn_a(3, 3, m), &
+    allocate (setup%basis(3, 3, m), setup%k_tt(2, 2, m), setup%turn_a(3, 3, m), &
               setup%turn_b(3, 3, m), setup%arm_a(3, m), setup%arm_b(3, m), setup%inv_k_nn(m), setup%k_tn(2, m), &
               setup%inv_k_tt(2, 2, m), setup%eig_tt(2, m), setup%axis_tt(2, m))
     associate (basis => setup%basis)
@@ -133,9 +133,8 @@ contains
         call turn_responses(contacts(c)%a, c, setup%turn_a(:, :, c))
         call turn_responses(contacts(c)%b, c, setup%turn_b(:, :, c))
         k = effective_mass(bodies, contacts(c))
-        setup%k_nn(c) = dot_product(basis(:, 1, c), matmul(k, basis(:, 1, c)))
         setup%k_tt(:, :, c) = matmul(transpose(basis(:, 2:3, c)), matmul(k, basis(:, 2:3, c)))
-        setup%inv_k_nn(c) = 1.0_dp/setup%k_nn(c)
+        setup%inv_k_nn(c) = 1.0_dp/dot_product(basis(:, 1, c), matmul(k, basis(:, 1, c)))
         setup%k_tn(:, c) = matmul(transpose(basis(:, 2:3, c)), matmul(k, basis(:, 1, c)))
         call decompose2(setup%k_tt(:, :, c), setup%inv_k_tt(:, :, c), setup%eig_tt(:, c), setup%axis_tt(:, c))
       end do
@@ -169,7 +168,7 @@ contains
 
   subroutine setup_free(self)
     class(pgs_setup_t), intent(inout) :: self
-    if (allocated(self%basis)) deallocate (self%basis, self%k_nn, self%k_tt, self%turn_a, self%turn_b, self%arm_a, &
+    if (allocated(self%basis)) deallocate (self%basis, self%k_tt, self%turn_a, self%turn_b, self%arm_a, &
                                            self%arm_b, self%inv_k_nn, self%k_tn, self%inv_k_tt, self%eig_tt, &
                                            self%axis_tt)
     if (allocated(self%members)) deallocate (self%members)
@@ -290,9 +289,10 @@ contains
   function friction_step(k, inv_k, eig, axis, lambda_old, ut, limit, nu_last) result(x)
     real(dp), intent(in) :: k(2, 2), inv_k(2, 2), eig(2), axis(2), lambda_old(2), ut(2), limit
     !> the shift nu of this contact's last sliding step (in), of this one (out): the Newton
-    !> iteration starts there (it converges monotonically from either side of the root, the
-    !> function being convex and increasing; in a converging solve a contact's shift changes
-    !> little from sweep to sweep, so one or two iterations are left instead of up to ten)
+    !> iteration starts there instead of at 0 (it converges from any start >= 0, at worst
+    !> overshooting the root once; tests/unit/test_contact_solver starts it from 1e-2 to 1e2
+    !> times the larger eigenvalue); in a converging solve a contact's shift changes little
+    !> from sweep to sweep, so fewer iterations are left)
     real(dp), intent(inout), optional :: nu_last
     real(dp) :: x(2), g(2), gr(2), xr(2), d(2), phi, dphi, nu, size_x
     integer :: iteration
