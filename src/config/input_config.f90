@@ -67,6 +67,9 @@ module input_config
     !> 0: never; auto (-1): rest_speed/100 (so no sleeping without gravity)
     real(dp) :: sleep_speed = -1.0_dp
     real(dp) :: sleep_time = 0.5_dp          !< [s] quiet time before an island sleeps
+    !> the contact pass allows for how the bodies' turning bends their contact points' paths
+    !> over the step (second order; .false.: straight lines, as before 2026-12-07)
+    logical :: turning_term = .true.
   end type contact_config_t
 
   type :: output_config_t

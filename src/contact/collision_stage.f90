@@ -69,6 +69,7 @@ module collision_stage
     !> at once: contact solvers leave residuals of this order in large groups [m/s].
     real(dp) :: settle_speed = 0.0_dp
     real(dp) :: rest_speed = 0.0_dp          !< impacts slower than this are inelastic [m/s]
+    logical :: turning_term = .true.         !< the pass allows for turning (contact_config_t)
     integer :: max_iterations = 100
     integer :: max_rounds = 100
     real(dp) :: box_size = 0.0_dp            !< grid box edge [m]

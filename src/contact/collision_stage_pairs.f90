@@ -54,6 +54,8 @@ contains
     end if
     self%settle_speed = max(self%velocity_tolerance, 1.0e-3_dp*self%rest_speed)
     self%resting%velocity_tolerance = self%velocity_tolerance
+    self%resting%turning_slack = 0.25_dp*self%target
+    self%turning_term = contact%turning_term
     call choose_box_size([smallest], 1.0_dp, self%box_size, err)
     if (err%failed()) return
     ! Each step keeps every body's travel plus the contact band within one grid box

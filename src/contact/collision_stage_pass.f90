@@ -5,7 +5,7 @@
 !> the time not taken given back (return_unused_pass). A submodule: it reads the stage's pair
 !> table and marks the pairs it solved there.
 submodule (collision_stage) collision_stage_pass
-  use impulse_solver, only: normal_velocity
+  use impulse_solver, only: normal_velocity, normal_curvature
   use pair_geometry, only: pair_contact_points
   implicit none
 
@@ -68,10 +68,10 @@ contains
       allocate (u_start(n_contacts))
       do c = 1, n_contacts
         u_start(c) = normal_velocity(bodies, self%contacts(c))
-        if (self%contacts(c)%allowed_approach > 0.0_dp) then
+        if (self%contacts(c)%speculative) then
           persistent(c) = speculative_active(c)
         else if (self%contacts(c)%restitution <= 0.0_dp) then
-          persistent(c) = u_start(c) <= separating_limit
+          persistent(c) = u_start(c) <= separating_limit .or. speculative_active(c)
         else
           persistent(c) = u_start(c) >= -self%rest_speed .and. u_start(c) <= separating_limit
         end if
@@ -206,7 +206,15 @@ contains
       ! step and no further; elastic ones (slow, in the band) may not approach at all
       if (restitution <= 0.0_dp) then
         do c = first, n_contacts
-          self%contacts(c)%allowed_approach = max(self%contacts(c)%gap - aim, 0.0_dp)/h
+          self%contacts(c)%speculative = self%contacts(c)%gap > aim
+          ! less what turning brings the contact closer than the straight line by the step's
+          ! end (a sliding or turning pair curves into the band's floor otherwise); negative:
+          ! the contact must open at that speed
+          self%contacts(c)%turning = self%turning_term
+          self%contacts(c)%allowed_straight = max(self%contacts(c)%gap - aim, 0.0_dp)/h
+          self%contacts(c)%allowed_approach = self%contacts(c)%allowed_straight
+          if (self%turning_term) self%contacts(c)%allowed_approach = self%contacts(c)%allowed_approach - &
+                                              0.5_dp*h*max(-normal_curvature(bodies, self%contacts(c)), 0.0_dp)
         end do
       end if
       if (.not. allocated(self%contact_pair)) allocate (self%contact_pair(max(64, size(self%contacts))))
@@ -236,7 +244,7 @@ contains
     allocate (reached(n_contacts))
     do c = 1, n_contacts
       associate (con => self%contacts(c))
-        reached(c) = con%allowed_approach <= 0.0_dp
+        reached(c) = .not. con%speculative
         if (.not. reached(c)) reached(c) = normal_velocity(bodies, con) + gravity_closing(bodies, con, gravity, h) < &
                                            -con%allowed_approach
       end associate
@@ -256,7 +264,7 @@ contains
     end if
     self%n_band_pairs = 0
     do c = 1, n_contacts
-      if (self%contacts(c)%allowed_approach > 0.0_dp) cycle   ! speculative: not touching
+      if (self%contacts(c)%speculative) cycle   ! not touching
       ! contact points of one pair are consecutive: keep the first of each run
       if (self%n_band_pairs > 0) then
         if (self%band_pairs(1, self%n_band_pairs) == self%contacts(c)%a .and. &

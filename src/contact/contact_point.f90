@@ -18,8 +18,15 @@ module contact_point
     !> Contact pass, inelastic pairs: this contact may keep approaching at up to this speed,
     !> the speed that closes its own feature gap to target + tolerance in exactly the step
     !> (speculative contacts, not yet in the band; also contacts in the band above that
-    !> height); 0 at or below it, and for elastic pairs [m/s].
+    !> height), 0 at or below it, less the closing that the bodies' turning adds by the
+    !> step's end (negative: the contact must open at that speed); 0 for elastic pairs [m/s].
     real(dp) :: allowed_approach = 0.0_dp
+    !> Contact pass: the features are above target + tolerance (not touching yet)
+    logical :: speculative = .false.
+    !> Contact pass, inelastic pairs: allowed_approach without the turning term [m/s]; the
+    !> solver takes the turning term again from the velocities it found (turning = .true.)
+    real(dp) :: allowed_straight = 0.0_dp
+    logical :: turning = .false.
     real(dp) :: gap = 0.0_dp          !< distance of the two features when found [m]
   end type contact_t
 

@@ -35,7 +35,7 @@ module impulse_solver
   use islands, only: contact_groups, group_members
   implicit none
   private
-  public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, scaled_velocity, &
+  public :: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, normal_curvature, scaled_velocity, &
             set_scaled_velocity, scaled_row, group_members, contact_groups, projection_warm_t
 
   !> The factorisations of the last inelastic projections of a fixed set of contacts, one
@@ -70,6 +70,43 @@ contains
     vb = point_velocity(bodies, c%b, c%point)
     normal_velocity = dot_product(c%normal, vb - va)
   end function normal_velocity
+
+  !> The second time derivative of contact c's gap at the bodies' present velocities, where
+  !> the motion is unfavourable [m/s^2]: n.(a_b(p) - a_a(p)) + 2 (w x n).(v_b(p) - v_a(p)), the
+  !> material points' accelerations under torque-free turning (centripetal and Euler terms)
+  !> and the turning of the normal carried across the relative velocity, with w that of
+  !> whichever body makes it the smaller (a vertex-face normal turns with the face's body,
+  !> an edge-edge one with both). Translation adds nothing: the pass's velocities hold for the
+  !> whole step. The terms of the normal's own second derivative are of order gap times
+  !> w^2 and left out.
+  pure real(dp) function normal_curvature(bodies, c)
+    type(bodies_t), intent(in) :: bodies
+    type(contact_t), intent(in) :: c
+    real(dp) :: v_rel(3), coriolis_a, coriolis_b
+    v_rel = point_velocity(bodies, c%b, c%point) - point_velocity(bodies, c%a, c%point)
+    coriolis_a = 2.0_dp*dot_product(cross(bodies%w(:, c%a), c%normal), v_rel)
+    coriolis_b = 2.0_dp*dot_product(cross(bodies%w(:, c%b), c%normal), v_rel)
+    normal_curvature = dot_product(c%normal, point_acceleration(bodies, c%b, c%point) - &
+                                   point_acceleration(bodies, c%a, c%point)) + min(coriolis_a, coriolis_b)
+  end function normal_curvature
+
+  !> Acceleration of body i's material point at p under torque-free motion at constant
+  !> linear velocity: w x (w x r) + alpha x r with alpha = I^-1 ((I w) x w) [m/s^2].
+  pure function point_acceleration(bodies, i, p) result(ap)
+    type(bodies_t), intent(in) :: bodies
+    integer, intent(in) :: i
+    real(dp), intent(in) :: p(3)
+    real(dp) :: ap(3), r(3), w(3), w_body(3), alpha(3)
+    if (bodies%fixed(i)) then
+      ap = 0.0_dp
+      return
+    end if
+    r = p - bodies%x(:, i)
+    w = bodies%w(:, i)
+    w_body = quat_rotate_inverse(bodies%q(:, i), w)
+    alpha = quat_rotate(bodies%q(:, i), cross(bodies%inertia(:, i)*w_body, w_body)/bodies%inertia(:, i))
+    ap = cross(w, cross(w, r)) + cross(alpha, r)
+  end function point_acceleration
 
   pure function point_velocity(bodies, i, p) result(vp)
     type(bodies_t), intent(in) :: bodies
@@ -195,7 +232,7 @@ contains
     ! Inelastic projection over all contacts of the group.
     allocate (lambda(m), lambda_elastic(m))
     lambda_elastic = 0.0_dp
-    if (any(contacts%allowed_approach > 0.0_dp)) then
+    if (any(contacts%allowed_approach /= 0.0_dp)) then
       call solve_biased_projection(e_matrix, vt0, contacts%allowed_approach, lambda, iterations, err, converged, warm)
     else
       call solve_nnls(e_matrix, -vt0, lambda, iterations, err, converged, state=warm)

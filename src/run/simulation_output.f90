@@ -277,6 +277,9 @@ contains
         if (rest%stats%staggered_solves > 0) write (*, '(a)') '  friction groups      '// &
           str(rest%stats%staggered_solves)//' staggered solves, '//str(rest%stats%staggered_rounds)//' rounds ('// &
           str(rest%stats%staggered_capped)//' capped), '//str(rest%stats%projections)//' finished by the projection'
+        if (rest%stats%turning_repairs > 0) write (*, '(a)') '  turning term         '// &
+          str(rest%stats%turning_repairs)//' group-steps projected again for their turning ('// &
+          str(rest%stats%turning_rounds)//' projections, '//str(rest%stats%turning_left)//' still short after the last)'
       end if
     end associate
     associate (sleep => self%collisions%sleep)

@@ -170,6 +170,14 @@ c.check(re.search(r"^\s*events\s*= 'auto'$", proc.stdout, re.M) is not None,
 c.check(re.search(r"^\s*restitution_rule\s*= 'min'$", proc.stdout, re.M) is not None and
         re.search(r"^\s*friction_rule\s*= 'geometric'$", proc.stdout, re.M) is not None,
         "--check prints &contact restitution_rule 'min' and friction_rule 'geometric' (the defaults)")
+c.check(re.search(r"^\s*turning_term\s*= \.true\.$", proc.stdout, re.M) is not None,
+        "--check prints &contact turning_term (default .true.)")
+off = deck("turning_off.nml", good_run + "&contact turning_term = .false. /\n" + "&body name = 'ball', shape = 'sphere', radius = 1.0, mass = 1.0 /\n")
+proc_off = subprocess.run([exe, "--check", off], capture_output=True, text=True, cwd=work)
+c.check(re.search(r"^\s*turning_term\s*= \.false\.$", proc_off.stdout, re.M) is not None,
+        "&contact turning_term = .false. is read and written back")
+expect_error([deck("turning_bad.nml", good_run + "&contact turning_term = 0.5 /\n" + "&body name = 'ball', shape = 'sphere', radius = 1.0, mass = 1.0 /\n")],
+             ["turning_bad.nml:2", "&contact", "turning_term"], "&contact turning_term not a logical")
 effective = deck("effective.nml", proc.stdout)
 proc = subprocess.run([exe, "--check", effective], capture_output=True, text=True, cwd=work)
 c.check(proc.returncode == 0, f"the effective deck is itself a valid deck: {proc.stderr.strip()}")

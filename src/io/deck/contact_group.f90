@@ -1,26 +1,28 @@
 !> The &contact group of a deck (docs/input.md): restitution, friction and how a pair
-!> combines its bodies' values, minimum separation, resting and sleeping thresholds. Its variables, the namelist read with the defaults
+!> combines its bodies' values, minimum separation, resting and sleeping thresholds, the
+!> contact pass's turning term. Its variables, the namelist read with the defaults
 !> reset, its rules, and its text in the effective deck.
 module contact_group
   use kinds, only: dp
   use error_status, only: error_t
   use string_utils, only: lower
   use input_config, only: contact_config_t, RULE_MIN, RULE_MAX, RULE_MEAN, RULE_GEOMETRIC
-  use namelist_source, only: DECK_AUTO, V_REAL, V_CHARACTER, var_spec_t, source_t, group_t, group_input_t, &
+  use namelist_source, only: DECK_AUTO, V_REAL, V_LOGICAL, V_CHARACTER, var_spec_t, source_t, group_t, group_input_t, &
                              open_group, prepare_group, translate_read_error, require_finite, fail, real_text, &
-                             put_real, put_text
+                             put_real, put_logical, put_text
   implicit none
   private
   public :: read_contact_group, write_contact_group
 
   type(contact_config_t), parameter :: contact_default = contact_config_t()
 
-  type(var_spec_t), parameter :: contact_vars(8) = [ &
+  type(var_spec_t), parameter :: contact_vars(9) = [ &
     var_spec_t('restitution', V_REAL, 1, 0), var_spec_t('friction', V_REAL, 1, 0), &
     var_spec_t('min_separation', V_REAL, 1, 0), var_spec_t('rest_speed', V_REAL, 1, 0), &
     var_spec_t('sleep_speed', V_REAL, 1, 0), var_spec_t('sleep_time', V_REAL, 1, 0), &
     var_spec_t('restitution_rule', V_CHARACTER, 1, len(contact_default%restitution_rule)), &
-    var_spec_t('friction_rule', V_CHARACTER, 1, len(contact_default%friction_rule))]
+    var_spec_t('friction_rule', V_CHARACTER, 1, len(contact_default%friction_rule)), &
+    var_spec_t('turning_term', V_LOGICAL, 1, 0)]
 
 contains
 
@@ -33,10 +35,11 @@ contains
     real(dp) :: restitution, friction, min_separation, rest_speed, sleep_speed, sleep_time
     character(len=len(config%restitution_rule)) :: restitution_rule
     character(len=len(config%friction_rule)) :: friction_rule
+    logical :: turning_term
     integer :: ios
     character(len=512) :: msg
     namelist /contact/ restitution, friction, min_separation, rest_speed, sleep_speed, sleep_time, &
-      restitution_rule, friction_rule
+      restitution_rule, friction_rule, turning_term
 
     call open_group(src, group, contact_vars, '&contact', g)
     call prepare_group(g, err)
@@ -49,6 +52,7 @@ contains
     sleep_time = config%sleep_time
     restitution_rule = config%restitution_rule
     friction_rule = config%friction_rule
+    turning_term = config%turning_term
     msg = ''
     read (g%text, nml=contact, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -63,6 +67,7 @@ contains
     config%sleep_time = sleep_time
     config%restitution_rule = lower(adjustl(restitution_rule))
     config%friction_rule = lower(adjustl(friction_rule))
+    config%turning_term = turning_term
 
     call require_finite(g, err, 'restitution', [restitution])
     call require_finite(g, err, 'friction', [friction])
@@ -118,6 +123,7 @@ contains
     call put_real(unit, 'sleep_time', [config%sleep_time], '[s]')
     call put_text(unit, 'restitution_rule', config%restitution_rule)
     call put_text(unit, 'friction_rule', config%friction_rule)
+    call put_logical(unit, 'turning_term', config%turning_term)
     write (unit, '(a)') '/'
   end subroutine write_contact_group
 
