@@ -304,7 +304,8 @@ contains
     end do
   end subroutine resting_solve
 
-  !> After a group's solve (groups small enough for the exact projection): the contacts
+  !> After a group's solve (groups small enough for the exact projection; not yet the
+  !> frictionless ones of up to exact_limit contacts, which keep their one projection): the contacts
   !> that the bodies' turning, at the velocities found, brings lower by the step's end than
   !> the pass allowed (the pass could take the turning term only from the velocities before
   !> the solve) are projected again exactly (e = 0, normal impulses added to the solve's).

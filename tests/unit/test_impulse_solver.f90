@@ -285,18 +285,11 @@ contains
     type(bodies_t), intent(in) :: b
     integer, intent(in) :: k
     real(dp), intent(in) :: p(3), t
-    real(dp) :: x(3), q(4), w(3)
-    if (b%fixed(k)) then
-      x = p
-      return
-    end if
-    q = b%q(:, k)
-    w = b%w(:, k)
-    call exact_rotate(q, w, b%inertia(:, k), t)
-    x = b%x(:, k) + b%v(:, k)*t + quat_rotate(q, quat_rotate_inverse(b%q(:, k), p - b%x(:, k)))
+    real(dp) :: x(3)
+    x = b%x(:, k) + b%v(:, k)*t + carried(b, k, p - b%x(:, k), t)
   end function material_point
 
-  !> Direction d (at t = 0) carried by body k's rotation to time t.
+  !> Direction d (at t = 0) carried by body k's exact torque-free rotation to time t.
   function carried(b, k, d, t) result(dt)
     type(bodies_t), intent(in) :: b
     integer, intent(in) :: k
