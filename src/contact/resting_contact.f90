@@ -28,8 +28,9 @@ module resting_contact
   use error_status, only: error_t
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
-  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, normal_curvature, contact_groups, &
-                            scaled_velocity, set_scaled_velocity, scaled_row, group_members, projection_warm_t
+  use impulse_solver, only: contact_t, impulse_stats_t, resolve_impacts, normal_velocity, normal_curvature, &
+                            contact_groups, scaled_velocity, set_scaled_velocity, scaled_row, group_members, &
+                            projection_warm_t
   use contact_solver, only: pgs_stats_t, pgs_setup_t, solve_contacts_pgs, tangent_basis
   use nnls, only: solve_nnls
   use vector_ops, only: cross
