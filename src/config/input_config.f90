@@ -25,6 +25,9 @@ module input_config
   !> &parallel: how a run on several ranks is cut into bricks (docs/input.md).
   type :: parallel_config_t
     integer :: dims(3) = 0      !< ranks along x, y, z; 0: chosen (the longest axis cut first)
+    !> [m] how far a body may leave its brick before it migrates to its new owner (-1: auto,
+    !> one box of the collision grid; 0: at every brick it leaves)
+    real(dp) :: skin = -1.0_dp
   end type parallel_config_t
 
   type :: run_config_t

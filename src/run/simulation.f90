@@ -117,6 +117,7 @@ module simulation
     !> of which it was at the window's start: the neighbours there hold it as a ghost
     integer, allocatable :: zone(:)
     real(dp) :: cross_r_max = 0.0_dp          !< largest bounding radius of a moving body of the scene [m]
+    real(dp) :: cross_skin = 0.0_dp           !< how far a body may leave its brick before it migrates [m]
     !> per ghost row: its owner's trajectory version when it came (-1: a fixed body)
     integer(i8), allocatable :: ghost_versions(:)
     !> windows, repeated (rolled back), cross phases, ghost updates sent, light starts,
@@ -160,10 +161,11 @@ module simulation
     end subroutine run_cross_windows
     !> The grid box of the bricks for cross_windows [m]: large enough that two rings of it
     !> hold every body that can reach an owned body while no body moves more than half a
-    !> collision grid box (docs/architecture.md): R_max + band/2 + h/2, R_max the largest
-    !> bounding radius of a moving body, h the collision grid's box, and at least h.
+    !> collision grid box past the skin s outside its brick (docs/architecture.md, "Why two
+    !> rings are enough"): 2 R_max + band + h + s, R_max the largest bounding radius of a
+    !> moving body, h the collision grid's box, s the &parallel skin (auto: h), and at least h.
     module real(dp) function cross_box_size(self, everyone) result(box)
-      type(simulation_t), intent(inout) :: self   !< (keeps R_max: cross_r_max)
+      type(simulation_t), intent(inout) :: self   !< (keeps R_max and s: cross_r_max, cross_skin)
       type(bodies_t), intent(in) :: everyone
     end function cross_box_size
     !> The bodies of all whose centre lies in this rank's brick, in global-id order.
@@ -343,7 +345,8 @@ contains
           call take_statics(everyone, self%statics)
           if (par%is_root()) then
             write (*, '(a)') '  bodies of different bricks may meet (bodies '//str(pair(1))//' and '//str(pair(2))// &
-              ' may touch): cross-rank windows with two rings of ghosts'
+              ' may touch): cross-rank windows with two rings of ghosts, migration skin '// &
+              str(self%cross_skin)//' m'
             flush (output_unit)
           end if
         end if

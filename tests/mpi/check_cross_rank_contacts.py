@@ -26,7 +26,13 @@ counters):
   another neighbour's side, two bodies that both changed with no pair ever made, a body
   re-placed at every bounce in a channel (never a box crossing);
 - the billiards break (input/validation/billiards_break.nml): groups of touching balls
-  split between ranks; 2 and 4 ranks.
+  split between ranks; 2 ranks, and 4 with `&parallel skin = 0` (the skin's larger bricks
+  do not fit four ranks on this small table).
+- the migration skin (`&parallel skin`, docs/architecture.md "Migration at full starts
+  only, past a skin"): the 200-sphere gas and the three review scenes also run with skin =
+  0 (migration at every brick a body leaves, the rule before the skin); both give the
+  one-rank files, bodies change rank in both, and the default skin needs fewer full window
+  starts than skin = 0.
 - an impulse group reaching across more than one brick (a Newton's cradle of 13 balls on
   3 ranks) is not built yet: every rank stops with an error naming it, never a wrong answer.
 Why bit for bit is the bar: a time of contact is a function of the two trajectories alone
@@ -184,6 +190,19 @@ for k in range(n):
                  % (k, SPHERE, *map(float, pos[k]), *map(float, vel[k])))
 gas = deck("gas.nml", "\n".join(lines) + "\n")
 gas_one = compare("gas", gas, (2, 3, 4), need_light=True)
+# The same gas with skin = 0: a body migrates at the first window start after it left its
+# brick (full starts), the rule the skin relaxes; both must be the one-rank run, and the
+# skin must spare full starts (windows - light starts) while bodies still change rank.
+gas_skin0 = deck("gas_skin0.nml", "\n".join(lines) + "\n&parallel skin = 0.0 /\n")
+compare("gas_skin0", gas_skin0, (2, 3), need_light=True)
+full_starts = {}
+for name, path in (("skin", gas), ("skin0", gas_skin0)):
+    proc = run(2, path, os.path.join(work, f"gas_starts_{name}"))
+    counts = cross_counts(proc.stdout)
+    c.check(counts is not None and counts[5] > 0, f"gas ({name}) on 2 ranks: bodies changed rank ({counts})")
+    full_starts[name] = counts[0] - counts[4] if counts else None
+c.check(None not in full_starts.values() and full_starts["skin"] < full_starts["skin0"],
+        f"gas on 2 ranks: the default skin needs fewer full window starts than skin = 0 ({full_starts})")
 # restarts across rank counts: 4 -> 2 and 1 -> 4, from the checkpoint at t = 0.5 s
 for written, goes_on in ((4, 2), (1, 4)):
     out = os.path.join(work, f"gas_restart_{written}_{goes_on}")
@@ -212,12 +231,21 @@ compare("gas_8000", deck("gas_8000.nml", deck_text(8000, 0.08, 11).replace("writ
 # them was ever made); a body bounced along a channel whose region moves at every impact,
 # so that it never has a box crossing. Each must give the one-rank files.
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "cross_rank")
+# (built for bricks without the skin: each also with skin = 0)
 for name, ranks in (("zone_body_wanders", 3), ("both_changed_pair_never_made", 2), ("channel_no_crossing", 2)):
-    compare(name, os.path.join(DATA, name + ".nml"), (ranks,), need_cross=False)
+    path = os.path.join(DATA, name + ".nml")
+    compare(name, path, (ranks,), need_cross=False)
+    with open(path) as f:
+        text = re.sub(r"&parallel dims = ([0-9, ]+) /", r"&parallel dims = \1, skin = 0.0 /", f.read())
+    c.check("skin = 0.0" in text, f"{name}: its &parallel group takes skin = 0")
+    compare(name + "_skin0", deck(name + "_skin0.nml", text), (ranks,), need_cross=False)
 
 # The billiards break: touching balls of the rack in impulse groups split between ranks.
 billiards = os.path.join(SOURCE, "input", "validation", "billiards_break.nml")
-compare("billiards", billiards, (2, 4), need_cross=False)
+compare("billiards", billiards, (2,), need_cross=False)
+with open(billiards) as f:
+    billiards_skin0 = deck("billiards_skin0.nml", f.read() + "\n&parallel skin = 0.0 /\n")
+compare("billiards_skin0", billiards_skin0, (4,), need_cross=False)
 
 # An impulse group across more than one brick: a cradle of 13 touching balls on 3 ranks
 # (the striker's impulse crosses two brick faces at once). Not built: an error on every

@@ -178,6 +178,18 @@ c.check(re.search(r"^\s*turning_term\s*= \.false\.$", proc_off.stdout, re.M) is 
         "&contact turning_term = .false. is read and written back")
 expect_error([deck("turning_bad.nml", good_run + "&contact turning_term = 0.5 /\n" + "&body name = 'ball', shape = 'sphere', radius = 1.0, mass = 1.0 /\n")],
              ["turning_bad.nml:2", "&contact", "turning_term"], "&contact turning_term not a logical")
+# &parallel skin [m]: -1 (auto) by default, read and written back, negative or NaN refused
+c.check(re.search(r"^\s*skin\s*= -1\.0\s", proc.stdout, re.M) is not None,
+        "--check prints &parallel skin (default -1: auto)")
+ball = "&body name = 'ball', shape = 'sphere', radius = 1.0, mass = 1.0 /\n"
+skin = deck("skin.nml", good_run + "&parallel skin = 0.025 /\n" + ball)
+proc_skin = subprocess.run([exe, "--check", skin], capture_output=True, text=True, cwd=work)
+c.check(re.search(r"^\s*skin\s*= 0\.025\s", proc_skin.stdout, re.M) is not None,
+        "&parallel skin = 0.025 is read and written back")
+expect_error([deck("skin_negative.nml", good_run + "&parallel skin = -0.5 /\n" + ball)],
+             ["skin_negative.nml:2", "&parallel", "skin", ">= 0 m, or -1 for auto"], "&parallel skin negative")
+expect_error([deck("skin_nan.nml", good_run + "&parallel skin = NaN /\n" + ball)],
+             ["skin_nan.nml:2", "&parallel", "skin"], "&parallel skin not finite")
 effective = deck("effective.nml", proc.stdout)
 proc = subprocess.run([exe, "--check", effective], capture_output=True, text=True, cwd=work)
 c.check(proc.returncode == 0, f"the effective deck is itself a valid deck: {proc.stderr.strip()}")

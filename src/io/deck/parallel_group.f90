@@ -4,15 +4,18 @@
 !> time (simulation: domain decomposition), which names this group then.
 module parallel_group
   use error_status, only: error_t
+  use kinds, only: dp
   use string_utils, only: str
   use input_config, only: parallel_config_t
-  use namelist_source, only: V_INTEGER, var_spec_t, source_t, group_t, group_input_t, open_group, &
-                             prepare_group, translate_read_error, fail, put_integer
+  use namelist_source, only: DECK_AUTO, V_INTEGER, V_REAL, var_spec_t, source_t, group_t, group_input_t, open_group, &
+                             prepare_group, translate_read_error, fail, put_integer, put_real, require_finite, &
+                             real_text
   implicit none
   private
   public :: read_parallel_group, write_parallel_group
 
-  type(var_spec_t), parameter :: parallel_vars(1) = [var_spec_t('dims', V_INTEGER, 3, 0)]
+  type(var_spec_t), parameter :: parallel_vars(2) = [var_spec_t('dims', V_INTEGER, 3, 0), &
+                                                      var_spec_t('skin', V_REAL, 1, 0)]
 
 contains
 
@@ -23,14 +26,16 @@ contains
     type(error_t), intent(inout) :: err
     type(group_input_t) :: g
     integer :: dims(3), ios
+    real(dp) :: skin
     character(len=512) :: msg
-    namelist /parallel/ dims
+    namelist /parallel/ dims, skin
 
     call open_group(src, group, parallel_vars, '&parallel', g)
     call prepare_group(g, err)
     if (err%failed()) return
     ! Defaults reset before the read: config is intent(out), so it holds the type's defaults.
     dims = config%dims
+    skin = config%skin
     msg = ''
     read (g%text, nml=parallel, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -38,6 +43,12 @@ contains
       return
     end if
     config%dims = dims
+    config%skin = skin
+    call require_finite(g, err, 'skin', [skin])
+    if (err%failed()) return
+    if (skin /= DECK_AUTO .and. skin < 0.0_dp) call fail(g, err, 'skin', 'skin must be >= 0 m, or -1 for auto, got '// &
+                                                          real_text(skin))
+    if (err%failed()) return
     if (any(dims < 0)) call fail(g, err, 'dims', 'dims must be >= 0 ranks along each of x, y, z (0: chosen), got '// &
                                  str(dims(1))//', '//str(dims(2))//', '//str(dims(3)))
   end subroutine read_parallel_group
@@ -46,8 +57,12 @@ contains
   subroutine write_parallel_group(config, unit)
     type(parallel_config_t), intent(in) :: config
     integer, intent(in) :: unit
+    character(len=:), allocatable :: note
     write (unit, '(a)') '&parallel'
     call put_integer(unit, 'dims', config%dims, 'ranks along x, y, z; 0: chosen')
+    note = '[m] how far a body may leave its brick before it migrates'
+    if (config%skin == DECK_AUTO) note = '[m] -1: auto, one box of the collision grid'
+    call put_real(unit, 'skin', [config%skin], note)
     write (unit, '(a)') '/'
   end subroutine write_parallel_group
 
