@@ -346,7 +346,7 @@ contains
           if (par%is_root()) then
             write (*, '(a)') '  bodies of different bricks may meet (bodies '//str(pair(1))//' and '//str(pair(2))// &
               ' may touch): cross-rank windows with two rings of ghosts, migration skin '// &
-              str(self%cross_skin)//' m'
+              trim(adjustl(str(self%cross_skin, '(es10.3)')))//' m'
             flush (output_unit)
           end if
         end if
