@@ -28,6 +28,16 @@ module free_flight
     !> than gravity (gravity plus the contact force the contact solve found): accel(:, i).
     logical, allocatable :: loaded(:)
     real(dp), allocatable :: accel(:, :)           !< [m/s^2] where loaded
+    !> An undo journal (a cross-rank window's save, docs/architecture.md "The window's
+    !> save"): while journaling, the first change of a body's record since start_journal
+    !> keeps the record as it was (its anchor_words), and roll_back puts every such record
+    !> back, bit for bit: O(records changed) instead of a copy of every record (40 MB of
+    !> rotors for 50,000 bodies).
+    logical :: journaling = .false.
+    logical, allocatable :: journaled(:)
+    integer :: n_journal = 0
+    integer, allocatable :: journal_row(:)
+    integer(i8), allocatable :: journal_words(:, :)
   contains
     procedure :: set_load => flight_set_load
     procedure :: clear_load => flight_clear_load
@@ -45,8 +55,10 @@ module free_flight
     procedure :: pack_anchors => flight_pack_anchors
     procedure :: unpack_anchors => flight_unpack_anchors
     procedure :: set_record => flight_set_record
-    procedure :: copy_to => flight_copy_to
     procedure :: grow => flight_grow
+    procedure :: start_journal => flight_start_journal
+    procedure :: stop_journal => flight_stop_journal
+    procedure :: roll_back => flight_roll_back
   end type free_flight_t
 
 contains
@@ -56,6 +68,9 @@ contains
     integer, intent(in) :: n_bodies
     type(integrator_config_t), intent(in) :: config
     self%exact = config%rotation == ROTATION_EXACT
+    self%journaling = .false.
+    self%n_journal = 0
+    if (allocated(self%journaled)) deallocate (self%journaled)
     if (allocated(self%loaded)) deallocate (self%loaded, self%accel)
     allocate (self%loaded(n_bodies), self%accel(3, n_bodies))
     self%loaded = .false.
@@ -71,7 +86,9 @@ contains
   subroutine flight_release(self, i)
     class(free_flight_t), intent(inout) :: self
     integer, intent(in) :: i
-    if (self%exact) self%anchored(i) = .false.
+    if (.not. self%exact) return
+    if (self%anchored(i)) call note(self, i)
+    self%anchored(i) = .false.
   end subroutine flight_release
 
   !> Body i moves with the constant acceleration a [m/s^2] from now until the load changes.
@@ -82,6 +99,7 @@ contains
     if (self%loaded(i)) then
       if (all(self%accel(:, i) == a)) return
     end if
+    call note(self, i)
     self%loaded(i) = .true.
     self%accel(:, i) = a
     call self%release(i)
@@ -92,6 +110,7 @@ contains
     class(free_flight_t), intent(inout) :: self
     integer, intent(in) :: i
     if (.not. self%loaded(i)) return
+    call note(self, i)
     self%loaded(i) = .false.
     call self%release(i)
   end subroutine flight_clear_load
@@ -120,7 +139,14 @@ contains
 
   subroutine flight_release_all(self)
     class(free_flight_t), intent(inout) :: self
-    if (self%exact) self%anchored = .false.
+    integer :: i
+    if (.not. self%exact) return
+    if (self%journaling) then
+      do i = 1, size(self%anchored)
+        call self%release(i)
+      end do
+    end if
+    self%anchored = .false.
   end subroutine flight_release_all
 
   !> Pose (x, q) body i will have after a step of tau from time_now, computed exactly as
@@ -227,26 +253,110 @@ contains
     integer, intent(in) :: n
     integer(i8), allocatable, intent(out) :: words(:, :)
     integer, intent(in), optional :: rows(:)
-    integer(i8), allocatable :: mold(:)
-    integer :: k, w, m, n_rows
+    integer :: k, m, n_rows
     n_rows = n
     if (present(rows)) n_rows = size(rows)
-    allocate (words(self%anchor_words(), n_rows), mold(0))
-    w = size(words, 1)
+    allocate (words(self%anchor_words(), n_rows))
     do m = 1, n_rows
       k = m
       if (present(rows)) k = rows(m)
-      words(1, m) = merge(1_i8, 0_i8, self%loaded(k))
-      words(2:4, m) = transfer(self%accel(:, k), mold)
-      words(5, m) = 0
-      if (.not. self%exact) cycle
-      words(5, m) = merge(1_i8, 0_i8, self%anchored(k))
-      words(6, m) = transfer(self%t0(k), 1_i8)
-      words(7:9, m) = transfer(self%x0(:, k), mold)
-      words(10:12, m) = transfer(self%v0(:, k), mold)
-      words(13:w, m) = transfer(self%rotors(k), mold)
+      call pack_row(self, k, words(:, m))
     end do
   end subroutine flight_pack_anchors
+
+  !> Body k's flight record as anchor_words words.
+  subroutine pack_row(self, k, words)
+    type(free_flight_t), intent(in) :: self
+    integer, intent(in) :: k
+    integer(i8), intent(out) :: words(:)
+    integer(i8) :: mold(0)
+    integer :: w
+    w = size(words)
+    words(1) = merge(1_i8, 0_i8, self%loaded(k))
+    words(2:4) = transfer(self%accel(:, k), mold)
+    words(5:) = 0
+    if (.not. self%exact) return
+    words(5) = merge(1_i8, 0_i8, self%anchored(k))
+    words(6) = transfer(self%t0(k), 1_i8)
+    words(7:9) = transfer(self%x0(:, k), mold)
+    words(10:12) = transfer(self%v0(:, k), mold)
+    words(13:w) = transfer(self%rotors(k), mold)
+  end subroutine pack_row
+
+  !> While journaling: body i's record is about to change; the first time since
+  !> start_journal, it is kept as it is now.
+  subroutine note(self, i)
+    type(free_flight_t), intent(inout) :: self
+    integer, intent(in) :: i
+    integer, allocatable :: rows(:)
+    integer(i8), allocatable :: words(:, :)
+    integer :: n
+    if (.not. self%journaling) return
+    if (self%journaled(i)) return
+    self%journaled(i) = .true.
+    n = self%n_journal
+    if (n == size(self%journal_row)) then
+      allocate (rows(2*n), words(size(self%journal_words, 1), 2*n))
+      rows(1:n) = self%journal_row(1:n)
+      words(:, 1:n) = self%journal_words(:, 1:n)
+      call move_alloc(rows, self%journal_row)
+      call move_alloc(words, self%journal_words)
+    end if
+    n = n + 1
+    self%n_journal = n
+    self%journal_row(n) = i
+    call pack_row(self, i, self%journal_words(:, n))
+  end subroutine note
+
+  !> From now on the first change of each record is kept, until roll_back or stop_journal
+  !> (the records of bodies 1..size(loaded) as they are now: the state roll_back returns to).
+  subroutine flight_start_journal(self)
+    class(free_flight_t), intent(inout) :: self
+    integer :: m
+    if (.not. allocated(self%loaded)) return
+    if (allocated(self%journaled)) then
+      if (size(self%journaled) /= size(self%loaded)) deallocate (self%journaled)
+    end if
+    if (.not. allocated(self%journaled)) then
+      allocate (self%journaled(size(self%loaded)))
+      self%journaled = .false.
+    else
+      do m = 1, self%n_journal
+        self%journaled(self%journal_row(m)) = .false.
+      end do
+    end if
+    if (.not. allocated(self%journal_row)) allocate (self%journal_row(64), self%journal_words(self%anchor_words(), 64))
+    self%n_journal = 0
+    self%journaling = .true.
+  end subroutine flight_start_journal
+
+  !> No more journal (the records kept are dropped).
+  subroutine flight_stop_journal(self)
+    class(free_flight_t), intent(inout) :: self
+    integer :: m
+    if (self%journaling) then
+      do m = 1, self%n_journal
+        self%journaled(self%journal_row(m)) = .false.
+      end do
+    end if
+    self%n_journal = 0
+    self%journaling = .false.
+  end subroutine flight_stop_journal
+
+  !> Every record changed since start_journal back as it was then, bit for bit; the journal
+  !> goes on from there (a later roll_back returns to the same state).
+  subroutine flight_roll_back(self)
+    class(free_flight_t), intent(inout) :: self
+    integer :: m
+    if (.not. self%journaling) return
+    self%journaling = .false.
+    do m = self%n_journal, 1, -1
+      call self%set_record(self%journal_row(m), self%journal_words(:, m))
+      self%journaled(self%journal_row(m)) = .false.
+    end do
+    self%n_journal = 0
+    self%journaling = .true.
+  end subroutine flight_roll_back
 
   !> The flight of bodies 1..size(words, 2) from records pack_anchors made (the flight is
   !> set up again for that many bodies: migration changes which bodies a rank holds).
@@ -261,50 +371,6 @@ contains
     end do
   end subroutine flight_unpack_anchors
 
-  !> dst becomes a copy of self, its arrays reused where they have the shape already. (The
-  !> intrinsic assignment of the type allocates every array afresh: 40 MB of rotors for
-  !> 50,000 bodies, page faults and all, at every cross-rank window's save and restore.)
-  subroutine flight_copy_to(self, dst)
-    class(free_flight_t), intent(in) :: self
-    type(free_flight_t), intent(inout) :: dst
-    dst%exact = self%exact
-    if (allocated(self%rotors)) then
-      dst%rotors = self%rotors
-    else if (allocated(dst%rotors)) then
-      deallocate (dst%rotors)
-    end if
-    if (allocated(self%t0)) then
-      dst%t0 = self%t0
-    else if (allocated(dst%t0)) then
-      deallocate (dst%t0)
-    end if
-    if (allocated(self%x0)) then
-      dst%x0 = self%x0
-    else if (allocated(dst%x0)) then
-      deallocate (dst%x0)
-    end if
-    if (allocated(self%v0)) then
-      dst%v0 = self%v0
-    else if (allocated(dst%v0)) then
-      deallocate (dst%v0)
-    end if
-    if (allocated(self%anchored)) then
-      dst%anchored = self%anchored
-    else if (allocated(dst%anchored)) then
-      deallocate (dst%anchored)
-    end if
-    if (allocated(self%loaded)) then
-      dst%loaded = self%loaded
-    else if (allocated(dst%loaded)) then
-      deallocate (dst%loaded)
-    end if
-    if (allocated(self%accel)) then
-      dst%accel = self%accel
-    else if (allocated(dst%accel)) then
-      deallocate (dst%accel)
-    end if
-  end subroutine flight_copy_to
-
   !> Room for bodies up to n, the records held kept (rows appended: ghosts that arrive at a
   !> light window start). New rows: no load, not anchored.
   subroutine flight_grow(self, n)
@@ -312,7 +378,7 @@ contains
     integer, intent(in) :: n
     type(free_rotor_t), allocatable :: rotors(:)
     real(dp), allocatable :: t0(:), x0(:, :), v0(:, :), accel(:, :)
-    logical, allocatable :: anchored(:), loaded(:)
+    logical, allocatable :: anchored(:), loaded(:), journaled(:)
     integer :: old
     if (.not. allocated(self%loaded)) return
     old = size(self%loaded)
@@ -324,6 +390,12 @@ contains
     accel(:, old + 1:) = 0.0_dp
     call move_alloc(loaded, self%loaded)
     call move_alloc(accel, self%accel)
+    if (allocated(self%journaled)) then
+      allocate (journaled(n))
+      journaled(1:old) = self%journaled
+      journaled(old + 1:) = .false.
+      call move_alloc(journaled, self%journaled)
+    end if
     if (.not. self%exact) return
     allocate (rotors(n), t0(n), x0(3, n), v0(3, n), anchored(n))
     rotors(1:old) = self%rotors
@@ -350,6 +422,7 @@ contains
     integer(i8), intent(in) :: words(:)
     type(free_rotor_t) :: probe
     integer :: w
+    call note(self, i)
     w = size(words)
     self%loaded(i) = words(1) /= 0
     self%accel(:, i) = transfer(words(2:4), self%accel(:, i))
@@ -366,6 +439,7 @@ contains
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: i
     real(dp), intent(in) :: time_now
+    call note(self, i)
     call self%rotors(i)%init(bodies%inertia(:, i), bodies%q(:, i), bodies%w(:, i))
     self%t0(i) = time_now
     self%x0(:, i) = bodies%x(:, i)

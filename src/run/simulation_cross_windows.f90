@@ -67,7 +67,6 @@ contains
   module procedure run_cross_windows
     real(dp) :: t_end, t_output, t_hard, t_cross, t_late, t_v, clock
     type(bodies_t) :: saved_bodies
-    type(free_flight_t) :: saved_flight
     type(collision_stage_t) :: saved_stage   ! (its counters and sleeping state only)
     type(event_loop_t) :: saved_loop
     integer, allocatable :: owner(:)
@@ -197,6 +196,7 @@ contains
         self%cross_wall(2) = self%cross_wall(2) + (par%wtime() - clock)
       end if
       self%events%cross_mode = CROSS_OFF
+      call self%propagator%stop_journal()
       ! the next window starts light (only the ghosts that changed come again, and the bodies
       ! that came near a neighbouring brick) unless a body left its brick somewhere
       need_full = par%any(self%events%halo_exit_seen)
@@ -236,7 +236,7 @@ contains
   contains
     subroutine save_state()
       saved_bodies = self%bodies
-      call self%propagator%copy_to(saved_flight)
+      call self%propagator%start_journal()
       n_log = self%collisions%n_log
       ! Of the collision stage, what an elastic event changes and later events or the
       ! summary read: counters and the sleeping state. Its gap memo is a cache (an entry
@@ -251,7 +251,7 @@ contains
     end subroutine save_state
     subroutine restore_state()
       self%bodies = saved_bodies
-      call saved_flight%copy_to(self%propagator)
+      call self%propagator%roll_back()
       self%collisions%stats = saved_stage%stats
       self%collisions%impulses = saved_stage%impulses
       self%collisions%impact_friction = saved_stage%impact_friction
