@@ -24,11 +24,6 @@ module cell_grid
   !> Bits of a box coordinate that enter its hash (2^30 * 8.4e7 * 3 < 2^63).
   integer(i8), parameter :: KEY_MASK = 2_i8**30 - 1_i8
 
-  type :: cell_t
-    integer :: n = 0
-    integer, allocatable :: ids(:)
-  end type cell_t
-
   type :: cell_grid_t
     real(dp) :: h = 0.0_dp                      !< box edge [m]
     real(dp) :: inv_h = 0.0_dp
@@ -41,7 +36,16 @@ module cell_grid
     integer :: n_used = 0                       !< table slots holding a box (possibly empty)
     integer(i8), allocatable :: slot_key(:, :)  !< (3, slot)
     logical, allocatable :: slot_used(:)
-    type(cell_t), allocatable :: cells(:)
+    !> Each box's list of bodies: cell_n(slot) ids at pool(cell_at(slot) + 1 : ...), room
+    !> for cell_cap(slot). The lists live in one pool instead of an allocatable per box (a
+    !> descriptor of 64 bytes a slot and a malloc a list: 800 MB and 1.6 s of page faults
+    !> for the table of 50,000 spheres with their ghosts): a list that outgrows its room
+    !> moves to the pool's top with twice the room, and the pool is compacted when more
+    !> than half of it is rooms no list uses.
+    integer, allocatable :: cell_n(:), cell_at(:), cell_cap(:)
+    integer, allocatable :: pool(:)
+    integer :: pool_top = 0                     !< pool entries handed out (rooms, used or not)
+    integer :: pool_live = 0                    !< of them, rooms of lists in the table
     integer, allocatable :: large_ids(:)
     integer :: n_large = 0
     integer, allocatable :: mark(:)             !< query de-duplication, per body
@@ -63,10 +67,12 @@ module cell_grid
   !> A grid's box table held apart from it (cell_grid_t swap_table): see rebuild_lists.
   type :: cell_lists_t
     private
-    type(cell_t), allocatable :: cells(:)
+    integer, allocatable :: cell_n(:), cell_at(:), cell_cap(:), pool(:)
     integer(i8), allocatable :: slot_key(:, :)
     logical, allocatable :: slot_used(:)
   end type cell_lists_t
+
+  integer, parameter :: first_room = 4          !< room of a new box's list
 
 contains
 
@@ -91,9 +97,12 @@ contains
     self%mark = 0
     self%mark_stamp = 0
     self%table_size = 1024
-    allocate (self%slot_key(3, self%table_size), self%slot_used(self%table_size), self%cells(self%table_size))
+    allocate (self%slot_key(3, self%table_size), self%slot_used(self%table_size), self%cell_n(self%table_size), &
+              self%cell_at(self%table_size), self%cell_cap(self%table_size), self%pool(4*self%table_size))
     self%slot_used = .false.
     self%n_used = 0
+    self%pool_top = 0
+    self%pool_live = 0
     allocate (self%large_ids(16))
     self%n_large = 0
   end subroutine cells_init
@@ -102,7 +111,11 @@ contains
     class(cell_grid_t), intent(inout) :: self
     if (allocated(self%placed)) deallocate (self%placed, self%large, self%lower, self%upper, self%lo, self%hi, &
                                             self%mark)
-    if (allocated(self%slot_key)) deallocate (self%slot_key, self%slot_used, self%cells)
+    if (allocated(self%slot_key)) deallocate (self%slot_key, self%slot_used)
+    if (allocated(self%cell_n)) deallocate (self%cell_n, self%cell_at, self%cell_cap)
+    if (allocated(self%pool)) deallocate (self%pool)
+    self%pool_top = 0
+    self%pool_live = 0
     if (allocated(self%large_ids)) deallocate (self%large_ids)
     self%n_large = 0
     self%n_used = 0
@@ -123,16 +136,28 @@ contains
   subroutine cells_swap_table(self, lists)
     class(cell_grid_t), intent(inout) :: self
     type(cell_lists_t), intent(inout) :: lists
-    type(cell_lists_t) :: held
-    call move_alloc(lists%cells, held%cells)
-    call move_alloc(lists%slot_key, held%slot_key)
-    call move_alloc(lists%slot_used, held%slot_used)
-    call move_alloc(self%cells, lists%cells)
-    call move_alloc(self%slot_key, lists%slot_key)
-    call move_alloc(self%slot_used, lists%slot_used)
-    call move_alloc(held%cells, self%cells)
-    call move_alloc(held%slot_key, self%slot_key)
-    call move_alloc(held%slot_used, self%slot_used)
+    call swap_ints(self%cell_n, lists%cell_n)
+    call swap_ints(self%cell_at, lists%cell_at)
+    call swap_ints(self%cell_cap, lists%cell_cap)
+    call swap_ints(self%pool, lists%pool)
+    block
+      integer(i8), allocatable :: key(:, :)
+      logical, allocatable :: used(:)
+      call move_alloc(lists%slot_key, key)
+      call move_alloc(self%slot_key, lists%slot_key)
+      call move_alloc(key, self%slot_key)
+      call move_alloc(lists%slot_used, used)
+      call move_alloc(self%slot_used, lists%slot_used)
+      call move_alloc(used, self%slot_used)
+    end block
+  contains
+    subroutine swap_ints(a, b)
+      integer, allocatable, intent(inout) :: a(:), b(:)
+      integer, allocatable :: c(:)
+      call move_alloc(b, c)
+      call move_alloc(a, b)
+      call move_alloc(c, a)
+    end subroutine swap_ints
   end subroutine cells_swap_table
 
   !> The box table (keys, slots in use, lists) made again from the bodies' box ranges
@@ -140,23 +165,24 @@ contains
   !> is; the table's own allocations are reused where they fit.
   subroutine cells_rebuild_lists(self)
     class(cell_grid_t), intent(inout) :: self
-    integer :: i, s
+    integer :: i
     integer(i8) :: a, b, c
     if (.not. allocated(self%placed)) return
     ! (the table of the copy's size, in this grid's own arrays where they fit)
-    if (allocated(self%cells)) then
-      if (size(self%cells) /= self%table_size) deallocate (self%cells)
+    if (allocated(self%cell_n)) then
+      if (size(self%cell_n) /= self%table_size) deallocate (self%cell_n, self%cell_at, self%cell_cap)
     end if
     if (allocated(self%slot_key)) then
       if (size(self%slot_key, 2) /= self%table_size) deallocate (self%slot_key, self%slot_used)
     end if
-    if (.not. allocated(self%cells)) allocate (self%cells(self%table_size))
+    if (.not. allocated(self%cell_n)) allocate (self%cell_n(self%table_size), self%cell_at(self%table_size), &
+                                                self%cell_cap(self%table_size))
     if (.not. allocated(self%slot_key)) allocate (self%slot_key(3, self%table_size), self%slot_used(self%table_size))
-    do s = 1, self%table_size
-      self%cells(s)%n = 0
-    end do
+    if (.not. allocated(self%pool)) allocate (self%pool(4*self%table_size))
     self%slot_used = .false.
     self%n_used = 0
+    self%pool_top = 0
+    self%pool_live = 0
     do i = 1, size(self%placed)
       if (.not. self%placed(i) .or. self%large(i)) cycle
       do c = self%lo(3, i), self%hi(3, i)
@@ -231,16 +257,14 @@ contains
     end do
     do s = 1, self%table_size
       if (.not. self%slot_used(s)) cycle
-      associate (cell => self%cells(s))
-        kept = 0
-        do k = 1, cell%n
-          ni = renamed(cell%ids(k))
-          if (ni == 0) cycle
-          kept = kept + 1
-          cell%ids(kept) = ni
-        end do
-        cell%n = kept
-      end associate
+      kept = 0
+      do k = self%cell_at(s) + 1, self%cell_at(s) + self%cell_n(s)
+        ni = renamed(self%pool(k))
+        if (ni == 0) cycle
+        self%pool(self%cell_at(s) + kept + 1) = ni
+        kept = kept + 1
+      end do
+      self%cell_n(s) = kept
     end do
     kept = 0
     do k = 1, self%n_large
@@ -370,8 +394,8 @@ contains
           do a = self%lo(1, i), self%hi(1, i)
             s = find_slot(self, [a, b, c])
             if (s == 0) cycle
-            do k = 1, self%cells(s)%n
-              j = self%cells(s)%ids(k)
+            do k = self%cell_at(s) + 1, self%cell_at(s) + self%cell_n(s)
+              j = self%pool(k)
               if (self%mark(j) == self%mark_stamp) cycle
               self%mark(j) = self%mark_stamp
               if (self%overlaps(i, j)) call push(j)
@@ -449,16 +473,59 @@ contains
       end do
       self%slot_used(s) = .true.
       self%slot_key(:, s) = key
-      self%cells(s)%n = 0
-      if (.not. allocated(self%cells(s)%ids)) allocate (self%cells(s)%ids(4))
+      self%cell_n(s) = 0
+      self%cell_cap(s) = 0
+      self%cell_at(s) = 0
       self%n_used = self%n_used + 1
     end if
-    associate (cell => self%cells(s))
-      if (cell%n == size(cell%ids)) call grow_list(cell%ids)
-      cell%n = cell%n + 1
-      cell%ids(cell%n) = i
-    end associate
+    if (self%cell_n(s) == self%cell_cap(s)) call give_room(self, s, max(first_room, 2*self%cell_cap(s)))
+    self%cell_n(s) = self%cell_n(s) + 1
+    self%pool(self%cell_at(s) + self%cell_n(s)) = i
   end subroutine insert
+
+  !> Box slot s's list moves to a room of cap entries at the pool's top (its ids kept).
+  subroutine give_room(self, s, cap)
+    type(cell_grid_t), intent(inout) :: self
+    integer, intent(in) :: s, cap
+    integer :: at
+    if (self%pool_top + cap > size(self%pool)) call make_room(self, cap)
+    at = self%pool_top
+    self%pool(at + 1:at + self%cell_n(s)) = self%pool(self%cell_at(s) + 1:self%cell_at(s) + self%cell_n(s))
+    self%pool_live = self%pool_live - self%cell_cap(s) + cap
+    self%pool_top = at + cap
+    self%cell_at(s) = at
+    self%cell_cap(s) = cap
+  end subroutine give_room
+
+  !> Room for cap more entries at the pool's top: the pool compacted (every list of the
+  !> table packed in slot order, with its room) when at least half of it is unused rooms,
+  !> else grown to twice its size.
+  subroutine make_room(self, cap)
+    type(cell_grid_t), intent(inout) :: self
+    integer, intent(in) :: cap
+    integer, allocatable :: packed(:)
+    integer :: s, at, new_size
+    new_size = size(self%pool)
+    do while (new_size < 2*(self%pool_live + cap))
+      new_size = 2*new_size
+    end do
+    if (2*self%pool_live <= self%pool_top) then
+      allocate (packed(new_size))
+      at = 0
+      do s = 1, self%table_size
+        if (.not. self%slot_used(s)) cycle
+        packed(at + 1:at + self%cell_n(s)) = self%pool(self%cell_at(s) + 1:self%cell_at(s) + self%cell_n(s))
+        self%cell_at(s) = at
+        at = at + self%cell_cap(s)
+      end do
+      self%pool_top = at
+      call move_alloc(packed, self%pool)
+    else
+      allocate (packed(new_size))
+      packed(1:self%pool_top) = self%pool(1:self%pool_top)
+      call move_alloc(packed, self%pool)
+    end if
+  end subroutine make_room
 
   subroutine delete(self, key, i)
     type(cell_grid_t), intent(inout) :: self
@@ -467,85 +534,73 @@ contains
     integer :: s, k
     s = find_slot(self, key)
     if (s == 0) return
-    associate (cell => self%cells(s))
-      do k = 1, cell%n
-        if (cell%ids(k) == i) then
-          cell%ids(k) = cell%ids(cell%n)
-          cell%n = cell%n - 1
-          return
-        end if
-      end do
-    end associate
+    do k = self%cell_at(s) + 1, self%cell_at(s) + self%cell_n(s)
+      if (self%pool(k) == i) then
+        self%pool(k) = self%pool(self%cell_at(s) + self%cell_n(s))
+        self%cell_n(s) = self%cell_n(s) - 1
+        return
+      end if
+    end do
   end subroutine delete
 
-  !> A table twice the size of the boxes still holding bodies (empty boxes are dropped, so
-  !> a body flying far does not leave a trail of boxes behind). At the size it has (most
-  !> rehashes: bodies moving on leave empty boxes behind) it is emptied and filled again in
-  !> place, the boxes still holding bodies set aside meanwhile (a quarter of the table at
-  !> most): a fresh table of four million slots (100,000 spheres on two ranks) costs its
-  !> page faults every time.
+  !> A table at least four times the boxes still holding bodies (empty boxes are dropped,
+  !> so a body flying far does not leave a trail of boxes behind; their rooms in the pool
+  !> are given up). At the size it has (most rehashes: bodies moving on leave empty boxes
+  !> behind) it is emptied and filled again in place: a fresh table of four million slots
+  !> (100,000 spheres on two ranks) costs its page faults every time. Only the slots move:
+  !> the lists stay where they are in the pool.
   subroutine rehash(self)
     type(cell_grid_t), intent(inout) :: self
     integer(i8), allocatable :: old_key(:, :)
-    logical, allocatable :: old_used(:)
-    type(cell_t), allocatable :: old_cells(:)
+    integer, allocatable :: old_n(:), old_at(:), old_cap(:)
     integer :: s, t, m, occupied, new_size
     occupied = 0
     do s = 1, self%table_size
       if (self%slot_used(s)) then
-        if (self%cells(s)%n > 0) occupied = occupied + 1
+        if (self%cell_n(s) > 0) occupied = occupied + 1
       end if
     end do
     new_size = self%table_size
     do while (new_size < 4*(occupied + 1))
       new_size = 2*new_size
     end do
-    if (new_size == self%table_size) then
-      allocate (old_key(3, occupied), old_cells(occupied))
-      m = 0
-      do s = 1, self%table_size
-        if (.not. self%slot_used(s)) cycle
-        if (self%cells(s)%n == 0) cycle
-        m = m + 1
-        old_key(:, m) = self%slot_key(:, s)
-        call move_alloc(self%cells(s)%ids, old_cells(m)%ids)
-        old_cells(m)%n = self%cells(s)%n
-      end do
-      self%slot_used = .false.
-      self%n_used = 0
-      do m = 1, occupied
-        call take_box(old_key(:, m), old_cells(m))
-      end do
-      return
-    end if
-    call move_alloc(self%slot_key, old_key)
-    call move_alloc(self%slot_used, old_used)
-    call move_alloc(self%cells, old_cells)
-    allocate (self%slot_key(3, new_size), self%slot_used(new_size), self%cells(new_size))
-    self%slot_used = .false.
-    self%table_size = new_size
-    self%n_used = 0
-    do s = 1, size(old_used)
-      if (.not. old_used(s)) cycle
-      if (old_cells(s)%n == 0) cycle
-      call take_box(old_key(:, s), old_cells(s))
+    ! the boxes holding bodies set aside (their lists stay where they are in the pool), the
+    ! empty ones' rooms given up
+    allocate (old_key(3, occupied), old_n(occupied), old_at(occupied), old_cap(occupied))
+    m = 0
+    do s = 1, self%table_size
+      if (.not. self%slot_used(s)) cycle
+      if (self%cell_n(s) == 0) then
+        self%pool_live = self%pool_live - self%cell_cap(s)
+        cycle
+      end if
+      m = m + 1
+      old_key(:, m) = self%slot_key(:, s)
+      old_n(m) = self%cell_n(s)
+      old_at(m) = self%cell_at(s)
+      old_cap(m) = self%cell_cap(s)
     end do
-  contains
-    !> A box and its list (moved, not copied) into the table.
-    subroutine take_box(key, cell)
-      integer(i8), intent(in) :: key(3)
-      type(cell_t), intent(inout) :: cell
-      t = hash_of(key, self%table_size)
+    if (new_size /= self%table_size) then
+      deallocate (self%slot_key, self%slot_used, self%cell_n, self%cell_at, self%cell_cap)
+      allocate (self%slot_key(3, new_size), self%slot_used(new_size), self%cell_n(new_size), self%cell_at(new_size), &
+                self%cell_cap(new_size))
+      self%table_size = new_size
+    end if
+    self%slot_used = .false.
+    self%n_used = 0
+    do m = 1, occupied
+      t = hash_of(old_key(:, m), self%table_size)
       do while (self%slot_used(t))
         t = t + 1
         if (t > self%table_size) t = 1
       end do
       self%slot_used(t) = .true.
-      self%slot_key(:, t) = key
-      call move_alloc(cell%ids, self%cells(t)%ids)
-      self%cells(t)%n = cell%n
+      self%slot_key(:, t) = old_key(:, m)
+      self%cell_n(t) = old_n(m)
+      self%cell_at(t) = old_at(m)
+      self%cell_cap(t) = old_cap(m)
       self%n_used = self%n_used + 1
-    end subroutine take_box
+    end do
   end subroutine rehash
 
   subroutine grow_list(x)

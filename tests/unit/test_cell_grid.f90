@@ -7,7 +7,11 @@
 !> from the copy and its table made again (rebuild_lists) answers every query as a grid
 !> built afresh with the saved regions does, before and after more placements. Last, bodies
 !> wandering through new boxes (each move leaves empty boxes behind) until the table is
-!> rehashed at its own size, in place: the grid then answers as one built afresh.
+!> rehashed at its own size, in place: the grid then answers as one built afresh. And the
+!> pool the boxes' lists live in: 300 bodies crowding into few boxes and spreading out again
+!> (lists outgrowing their rooms, rooms left behind until the pool is compacted), then a
+!> renumbering (remap_bodies: some bodies leave, the rest are renamed in the lists): the
+!> grid answers as one built afresh every time.
 program test_cell_grid
   use kinds, only: dp, i8
   use string_utils, only: str
@@ -66,6 +70,7 @@ program test_cell_grid
   call grid%free()
   call restore_without_table()
   call wander_and_rehash_in_place()
+  call crowd_and_compact()
   call test_finish()
 
 contains
@@ -172,6 +177,63 @@ contains
     call check(bad == 0, 'after rehashes in place the grid answers as one built afresh (queries differing: '// &
                str(bad)//')')
   end subroutine wander_and_rehash_in_place
+
+  subroutine crowd_and_compact()
+    integer, parameter :: n = 300
+    type(cell_grid_t) :: live, fresh
+    type(error_t) :: err
+    type(random_stream_t) :: rng
+    real(dp) :: c(3, n), spread
+    integer :: i, round, bad, compactions, top_before, max_list, new_index(n), k
+    logical :: kept(n)
+    call rng%init(23)
+    call live%init(1.0_dp, n, err, max_span=4)
+    bad = 0
+    compactions = 0
+    max_list = 0
+    do round = 1, 40
+      ! crowding into a 2 m cube (every box lists about a hundred bodies), then spreading
+      ! over 40 m (few bodies a box): lists outgrow their rooms, then leave them unused
+      spread = merge(2.0_dp, 40.0_dp, mod(round, 2) == 1)
+      do i = 1, n
+        c(:, i) = [rng%uniform(), rng%uniform(), rng%uniform()]*spread
+        top_before = live%pool_top
+        call live%place(i, c(:, i) - 0.3_dp, c(:, i) + 0.3_dp, err)
+        if (live%pool_top < top_before) compactions = compactions + 1
+      end do
+      max_list = max(max_list, maxval(live%cell_n, mask=live%slot_used))
+      call fresh%init(1.0_dp, n, err, max_span=4)
+      do i = 1, n
+        call fresh%place(i, c(:, i) - 0.3_dp, c(:, i) + 0.3_dp, err)
+      end do
+      bad = bad + differing_queries(live, fresh, n, [(.true., i=1, n)])
+    end do
+    call check(.not. err%failed(), 'crowding placements')
+    call check(max_list > 64, 'lists outgrew their first rooms many times (longest '//str(max_list)//')')
+    call check(compactions > 0, 'the pool was compacted ('//str(compactions)//' times)')
+    call check(bad == 0, 'crowded and spread out, the grid answers as one built afresh (queries differing: '// &
+               str(bad)//')')
+    ! a renumbering: every third body leaves, the others are numbered in reverse
+    k = 0
+    do i = n, 1, -1
+      kept(i) = mod(i, 3) /= 0
+      if (kept(i)) k = k + 1
+    end do
+    new_index = 0
+    do i = n, 1, -1
+      if (.not. kept(i)) cycle
+      new_index(i) = k
+      k = k - 1
+    end do
+    call live%remap_bodies(new_index, count(kept))
+    call fresh%init(1.0_dp, count(kept), err, max_span=4)
+    do i = 1, n
+      if (kept(i)) call fresh%place(new_index(i), c(:, i) - 0.3_dp, c(:, i) + 0.3_dp, err)
+    end do
+    bad = differing_queries(live, fresh, count(kept), [(.true., i=1, count(kept))])
+    call check(bad == 0, 'renumbered in its lists, the grid answers as one built afresh (queries differing: '// &
+               str(bad)//')')
+  end subroutine crowd_and_compact
 
   !> How many of the bodies 1..n with included(i) get other candidates from live than from fresh.
   integer function differing_queries(live, fresh, n, included) result(bad)
