@@ -8,6 +8,7 @@ program ricochet
   use string_utils, only: join_path, str
   use input_config, only: deck_t
   use deck_reader, only: read_deck, write_effective_deck
+  use shared_deck, only: read_deck_shared
   use simulation, only: simulation_t
   use startup_report, only: check_deck
   use stop_request, only: install_stop_handlers, exit_now
@@ -60,7 +61,8 @@ program ricochet
     ! SIGTERM/SIGINT from here on stop the run cleanly with a checkpoint (docs/output.md).
     call install_stop_handlers(err)
     if (err%failed()) call fail(par, err)
-    call read_deck(deck_path, deck, err)
+    ! (every rank parses a share of the &body groups: shared_deck)
+    call read_deck_shared(par, deck_path, deck, err)
     if (err%failed()) call fail(par, err)
     if (par%is_root()) then
       write (output_unit, '(a)') 'ricochet '//RICOCHET_VERSION//': '//trim(deck%run%title)//' ('//deck_path//')'

@@ -42,7 +42,7 @@ module deck_reader
   use body_group, only: read_body_group, write_body_group
   implicit none
   private
-  public :: read_deck, write_effective_deck, effective_deck_lines, DECK_AUTO
+  public :: read_deck, check_deck_bodies, write_effective_deck, effective_deck_lines, DECK_AUTO
 
 contains
 
@@ -52,13 +52,21 @@ contains
   !> on entry (the call then returns at once).
   !> Relative paths in the deck (mesh_file, output dir) are stored resolved against the
   !> deck's folder, as absolute paths.
-  subroutine read_deck(path, deck, err)
+  subroutine read_deck(path, deck, err, share, failed_group)
     character(len=*), intent(in) :: path
     type(deck_t), intent(out) :: deck
     type(error_t), intent(inout) :: err
+    !> (rank, ranks): read only this rank's block of the &body groups (n_bodies rank / ranks
+    !> + 1 .. n_bodies (rank + 1) / ranks), the others left at their defaults but for their
+    !> line, and skip the checks of all bodies together (check_deck_bodies, once the blocks
+    !> are gathered: shared_deck)
+    integer, intent(in), optional :: share(2)
+    !> the group whose reading failed (its number in the deck; 0: none, or before the groups)
+    integer, intent(out), optional :: failed_group
     type(source_t) :: src
-    integer :: k, i_body
+    integer :: k, i_body, first_body, last_body
 
+    if (present(failed_group)) failed_group = 0
     if (err%failed()) return   ! an error already pending is not overwritten
     call load_source(path, src, err)
     if (err%failed()) return
@@ -71,6 +79,12 @@ contains
     deck%folder = absolute_path(dirname(path))
     deck%n_bodies = count([(src%groups(k)%name == 'body', k=1, src%n_groups)])
     allocate (deck%bodies(deck%n_bodies))
+    first_body = 1
+    last_body = deck%n_bodies
+    if (present(share)) then
+      first_body = int(int(deck%n_bodies, i8)*share(1)/share(2)) + 1
+      last_body = int(int(deck%n_bodies, i8)*(share(1) + 1)/share(2))
+    end if
     i_body = 0
     ! Groups are read in deck order so that the first error reported is the first in the file.
     do k = 1, src%n_groups
@@ -87,11 +101,18 @@ contains
         call read_parallel_group(src, src%groups(k), deck%parallel, err)
       case ('body')
         i_body = i_body + 1
-        call read_body_group(src, src%groups(k), i_body, deck%folder, deck%bodies(i_body), err)
+        if (i_body >= first_body .and. i_body <= last_body) then
+          call read_body_group(src, src%groups(k), i_body, deck%folder, deck%bodies(i_body), err)
+        else
+          deck%bodies(i_body)%line = src%groups(k)%first_line
+        end if
       end select
-      if (err%failed()) return
+      if (err%failed()) then
+        if (present(failed_group)) failed_group = k
+        return
+      end if
     end do
-    call check_bodies_together(src, deck, err)
+    if (.not. present(share)) call check_deck_bodies(deck, err)
     if (err%failed()) return
     ! Without &output the default dir still resolves against the deck's folder (a no-op when
     ! &output resolved it already: the path is absolute).
@@ -100,8 +121,7 @@ contains
 
   !> Checks across bodies: distinct names, a total count that fits an integer. Names are
   !> compared after sorting (n log n: decks written by tools may hold many &body groups).
-  subroutine check_bodies_together(src, deck, err)
-    type(source_t), intent(in) :: src
+  subroutine check_deck_bodies(deck, err)
     type(deck_t), intent(in) :: deck
     type(error_t), intent(inout) :: err
     integer, allocatable :: order(:)
@@ -114,7 +134,7 @@ contains
       if (deck%bodies(order(k))%name == deck%bodies(order(k - 1))%name) then
         first = min(order(k), order(k - 1))
         second = max(order(k), order(k - 1))
-        call err%set(ERR_INPUT, src%path//':'//str(deck%bodies(second)%line)//': &body #'//str(second)//' '''// &
+        call err%set(ERR_INPUT, deck%path//':'//str(deck%bodies(second)%line)//': &body #'//str(second)//' '''// &
                      trim(deck%bodies(second)%name)//''': name '''//trim(deck%bodies(second)%name)// &
                      ''' is already used by &body #'//str(first)//' (line '//str(deck%bodies(first)%line)//')')
         return
@@ -125,9 +145,9 @@ contains
       total = total + product(int(deck%bodies(k)%copies, i8))
     end do
     if (total > int(huge(0), i8)) then
-      call err%set(ERR_INPUT, src%path//': the deck describes '//str(total)//' bodies, more than '//str(huge(0)))
+      call err%set(ERR_INPUT, deck%path//': the deck describes '//str(total)//' bodies, more than '//str(huge(0)))
     end if
-  end subroutine check_bodies_together
+  end subroutine check_deck_bodies
 
   !> Stable bottom-up merge sort of order(:) by bodies(order(:))%name.
   subroutine sort_by_name(bodies, order)

@@ -14,7 +14,8 @@ module parallel_env
                      MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_INTEGER8, MPI_LOGICAL, MPI_LOR, &
                      MPI_CHARACTER, MPI_IN_PLACE, MPI_Cart_create, MPI_Cart_shift, MPI_Comm_free, &
                      MPI_Sendrecv, MPI_Status, MPI_PROC_NULL, MPI_SUCCESS, MPI_Alltoall, MPI_Alltoallv, &
-                     MPI_Allgather, MPI_Allgatherv, operator(/=)
+                     MPI_Allgather, MPI_Allgatherv, MPI_Datatype, MPI_Type_contiguous, MPI_Type_commit, &
+                     MPI_Type_free, operator(/=)
 #endif
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INTERNAL, ERR_PARALLEL
@@ -49,6 +50,7 @@ module parallel_env
     procedure :: exchange_faces => parallel_exchange_faces
     procedure :: alltoallv => parallel_alltoallv
     procedure :: allgather_lines => parallel_allgather_lines
+    procedure :: allgather_records => parallel_allgather_records
     generic :: sum => sum_dp, sum_int, sum_int8
     generic :: sum_inplace => sum_dp_array, sum_exact_array, sum_exact_one
     generic :: max => max_dp, max_int
@@ -498,6 +500,37 @@ contains
       o = o + all_lengths(k)
     end do
   end subroutine parallel_allgather_lines
+
+  !> Every rank's records (mine(:, k): one record of size(mine, 1) words, the same size on
+  !> every rank) concatenated in rank order into all(:, :) on every rank. Counted in
+  !> records (an MPI type of one record), so that 10^7 records of a few hundred words stay
+  !> within MPI's int counts. Collective.
+  subroutine parallel_allgather_records(self, mine, all)
+    class(parallel_t), intent(in) :: self
+    integer(i8), intent(in) :: mine(:, :)
+    integer(i8), allocatable, intent(out) :: all(:, :)
+    integer, allocatable :: counts(:), first(:)
+#ifdef RICOCHET_USE_MPI
+    type(MPI_Datatype) :: record
+#endif
+    allocate (counts(0:self%n_ranks - 1))
+    counts = size(mine, 2)
+#ifdef RICOCHET_USE_MPI
+    if (self%n_ranks > 1) call MPI_Allgather(size(mine, 2), 1, MPI_INTEGER, counts, 1, MPI_INTEGER, self%comm)
+#endif
+    allocate (all(size(mine, 1), sum(counts)))
+    if (self%n_ranks == 1) then
+      all = mine
+      return
+    end if
+    first = exclusive_prefix(counts)
+#ifdef RICOCHET_USE_MPI
+    call MPI_Type_contiguous(size(mine, 1), MPI_INTEGER8, record)
+    call MPI_Type_commit(record)
+    call MPI_Allgatherv(mine, size(mine, 2), record, all, counts, first, record, self%comm)
+    call MPI_Type_free(record)
+#endif
+  end subroutine parallel_allgather_records
 
   !> Where each rank's part starts in a concatenation of parts of counts(:) items (0-based
   !> displacements, as MPI's v-collectives take them).

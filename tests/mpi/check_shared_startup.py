@@ -6,6 +6,11 @@ answer. So on 1, 2, 3 and 4 ranks:
   whichever rank tested that pair (never a hang: each run has a timeout);
 - a deck with two pairs that may touch names the same pair in the notice, the one the
   one-rank sweep meets first, though another rank finds the other pair.
+And the deck itself, read in shares (src/run/shared_deck: each rank parses a block of the
+&body groups, the blocks gathered): a faulty &body group in the last rank's block, with a
+later faulty &contact group; faulty groups in the first and the last block; the same name
+in two blocks: each stops every rank with the one error line one rank gives (the first in
+the file), never a hang.
 
 Usage: check_shared_startup.py EXE WORKDIR MPIEXEC [MPIEXEC FLAGS...]"""
 import os
@@ -88,4 +93,39 @@ for ranks in (2, 3, 4):
     notice = re.search(r"bodies (\d+) and (\d+) may touch", proc.stdout)
     c.check(notice is not None and notice.groups() == ("25", "26"),
             f"{ranks} ranks: the notice names bodies 25 and 26, got {notice.group(0) if notice else proc.stdout[-300:]}")
+# The deck read in shares: eight &body groups (blocks of 4, 3-3-2 and 2 on 2, 3, 4 ranks).
+def bodies(bad=(), same_name=False):
+    lines = ["&run t_end = 0.1, dt_max = 0.01 /", "&output write_frames = .false. /"]
+    for k in range(1, 9):
+        radius = -0.25 if k in bad else 0.25
+        name = "b1" if (same_name and k == 8) else f"b{k}"
+        lines.append(f"&body name = '{name}', shape = 'sphere', radius = {radius}, density = 1000.0, "
+                     f"position = {2.0 * k}, 0.0, 0.0 /")
+    return lines
+
+
+cases = {"last_block": bodies(bad=(7,)) + ["&contact restitution = 2.0 /"],
+         "first_and_last": bodies(bad=(2, 7)),
+         "same_name": bodies(same_name=True)}
+for name, lines in cases.items():
+    path = deck(f"shared_{name}.nml", "\n".join(lines) + "\n")
+    errors = {}
+    for ranks in (1, 2, 3, 4):
+        proc = run(ranks, path, f"shared_{name}_{ranks}")
+        if proc is None:
+            continue
+        err_lines = [l for l in proc.stderr.splitlines() if l.startswith("ricochet: error")]
+        c.check(proc.returncode != 0 and len(err_lines) == 1,
+                f"deck {name} on {ranks} rank(s): stops with one error line (exit {proc.returncode}: {err_lines})")
+        errors[ranks] = err_lines
+    want = {"last_block": "&body", "first_and_last": "&body", "same_name": "already used by &body #1"}[name]
+    c.check(1 in errors and len(errors[1]) == 1 and want in errors[1][0],
+            f"deck {name} on 1 rank: the error names {want!r}: {errors.get(1)}")
+    line_of = {"last_block": ":9:", "first_and_last": ":4:", "same_name": ":10:"}[name]
+    c.check(1 in errors and len(errors[1]) == 1 and line_of in errors[1][0],
+            f"deck {name} on 1 rank: the first faulty group in the file ({line_of}): {errors.get(1)}")
+    for ranks in (2, 3, 4):
+        if ranks in errors and 1 in errors:
+            c.check(errors[ranks] == errors[1], f"deck {name} on {ranks} ranks: the error one rank gives: "
+                                                f"{errors[ranks]} against {errors[1]}")
 c.finish()
