@@ -51,6 +51,14 @@ module cell_grid
     integer, allocatable :: mark(:)             !< query de-duplication, per body
     integer :: mark_stamp = 0
     integer(i8) :: placements = 0               !< placements so far (summary)
+    !> The bodies placed or unplaced since start_journal (a cross-rank window's save): a
+    !> restore from a copy without the table (swap_table) takes them out of the lists before
+    !> the copy and puts them back at their restored ranges after it (restore_prepare,
+    !> restore_finish): O(bodies moved in the window), not a table made again from all.
+    logical :: journaling = .false.
+    logical, allocatable :: touched(:)          !< per body
+    integer, allocatable :: touched_ids(:)
+    integer :: n_touched = 0
   contains
     procedure :: init => cells_init
     procedure :: free => cells_free
@@ -61,7 +69,9 @@ module cell_grid
     procedure :: remap_bodies => cells_remap_bodies
     procedure :: overlaps => cells_overlaps
     procedure :: swap_table => cells_swap_table
-    procedure :: rebuild_lists => cells_rebuild_lists
+    procedure :: start_journal => cells_start_journal
+    procedure :: restore_prepare => cells_restore_prepare
+    procedure :: restore_finish => cells_restore_finish
   end type cell_grid_t
 
   !> A grid's box table held apart from it (cell_grid_t swap_table): see rebuild_lists.
@@ -70,6 +80,9 @@ module cell_grid
     integer, allocatable :: cell_n(:), cell_at(:), cell_cap(:), pool(:)
     integer(i8), allocatable :: slot_key(:, :)
     logical, allocatable :: slot_used(:)
+    integer :: table_size = 0, n_used = 0, pool_top = 0, pool_live = 0
+    integer, allocatable :: touched_ids(:)
+    integer :: n_touched = 0
   end type cell_lists_t
 
   integer, parameter :: first_room = 4          !< room of a new box's list
@@ -117,6 +130,10 @@ contains
     self%pool_top = 0
     self%pool_live = 0
     if (allocated(self%large_ids)) deallocate (self%large_ids)
+    if (allocated(self%touched)) deallocate (self%touched)
+    if (allocated(self%touched_ids)) deallocate (self%touched_ids)
+    self%journaling = .false.
+    self%n_touched = 0
     self%n_large = 0
     self%n_used = 0
     self%table_size = 0
@@ -127,12 +144,14 @@ contains
   !> of a grid allocates every box's list (a million-slot table for 13,500 spheres: 80 ms a
   !> copy, most of a 27,000-sphere gas on two ranks), and gfortran's copy of a type holding
   !> one does so even where the grid has a defined assignment. So a holder is copied with
-  !> both grids' tables swapped out into holders (swap_table; swapped back after the copy,
-  !> which then holds none of its own but what it had before), and a grid whose
-  !> other components were restored from such a copy makes its lists again from its bodies'
-  !> box ranges (rebuild_lists). What a grid answers depends only on which bodies each box
-  !> lists: a query's result is sorted, so neither the order within a box nor the table's
-  !> layout shows.
+  !> both grids' tables (with their sizes and the journal's list of bodies) swapped out
+  !> into holders (swap_table; swapped back after the copy, which then holds none of its
+  !> own but what it had before). A grid whose other components are restored from such a
+  !> copy keeps its own table: the bodies placed since the copy (start_journal) leave it
+  !> before the restore and enter it again at their restored ranges after it
+  !> (restore_prepare, restore_finish). What a grid answers depends only on which bodies
+  !> each box lists: a query's result is sorted, so neither the order within a box nor the
+  !> table's layout shows.
   subroutine cells_swap_table(self, lists)
     class(cell_grid_t), intent(inout) :: self
     type(cell_lists_t), intent(inout) :: lists
@@ -140,6 +159,12 @@ contains
     call swap_ints(self%cell_at, lists%cell_at)
     call swap_ints(self%cell_cap, lists%cell_cap)
     call swap_ints(self%pool, lists%pool)
+    call swap_ints(self%touched_ids, lists%touched_ids)
+    call swap_int(self%table_size, lists%table_size)
+    call swap_int(self%n_used, lists%n_used)
+    call swap_int(self%pool_top, lists%pool_top)
+    call swap_int(self%pool_live, lists%pool_live)
+    call swap_int(self%n_touched, lists%n_touched)
     block
       integer(i8), allocatable :: key(:, :)
       logical, allocatable :: used(:)
@@ -158,32 +183,56 @@ contains
       call move_alloc(a, b)
       call move_alloc(c, a)
     end subroutine swap_ints
+    subroutine swap_int(a, b)
+      integer, intent(inout) :: a, b
+      integer :: c
+      c = a
+      a = b
+      b = c
+    end subroutine swap_int
   end subroutine cells_swap_table
 
-  !> The box table (keys, slots in use, lists) made again from the bodies' box ranges
-  !> (placed, large, lo, hi) at the table size the grid has, every other component as it
-  !> is; the table's own allocations are reused where they fit.
-  subroutine cells_rebuild_lists(self)
+  !> From now on the bodies placed or unplaced are noted (the state restore_prepare and
+  !> restore_finish return the lists to is this one).
+  subroutine cells_start_journal(self)
     class(cell_grid_t), intent(inout) :: self
-    integer :: i
-    integer(i8) :: a, b, c
+    integer :: k
     if (.not. allocated(self%placed)) return
-    ! (the table of the copy's size, in this grid's own arrays where they fit)
-    if (allocated(self%cell_n)) then
-      if (size(self%cell_n) /= self%table_size) deallocate (self%cell_n, self%cell_at, self%cell_cap)
+    if (allocated(self%touched)) then
+      if (size(self%touched) /= size(self%placed)) deallocate (self%touched)
     end if
-    if (allocated(self%slot_key)) then
-      if (size(self%slot_key, 2) /= self%table_size) deallocate (self%slot_key, self%slot_used)
+    if (.not. allocated(self%touched)) then
+      allocate (self%touched(size(self%placed)))
+      self%touched = .false.
+    else
+      do k = 1, self%n_touched
+        self%touched(self%touched_ids(k)) = .false.
+      end do
     end if
-    if (.not. allocated(self%cell_n)) allocate (self%cell_n(self%table_size), self%cell_at(self%table_size), &
-                                                self%cell_cap(self%table_size))
-    if (.not. allocated(self%slot_key)) allocate (self%slot_key(3, self%table_size), self%slot_used(self%table_size))
-    if (.not. allocated(self%pool)) allocate (self%pool(4*self%table_size))
-    self%slot_used = .false.
-    self%n_used = 0
-    self%pool_top = 0
-    self%pool_live = 0
-    do i = 1, size(self%placed)
+    if (.not. allocated(self%touched_ids)) allocate (self%touched_ids(64))
+    self%n_touched = 0
+    self%journaling = .true.
+  end subroutine cells_start_journal
+
+  !> Before a grid's other components are restored from a copy taken at start_journal
+  !> (with the tables set aside: swap_table): the bodies placed or unplaced since leave the
+  !> lists (at the ranges they have now).
+  subroutine cells_restore_prepare(self)
+    class(cell_grid_t), intent(inout) :: self
+    integer :: k
+    do k = 1, self%n_touched
+      call self%unplace(self%touched_ids(k))
+    end do
+  end subroutine cells_restore_prepare
+
+  !> After that restore: the same bodies enter the lists at their restored ranges; the
+  !> lists are then those of the copy's time, and the journal starts again from there.
+  subroutine cells_restore_finish(self)
+    class(cell_grid_t), intent(inout) :: self
+    integer :: k, i
+    integer(i8) :: a, b, c
+    do k = 1, self%n_touched
+      i = self%touched_ids(k)
       if (.not. self%placed(i) .or. self%large(i)) cycle
       do c = self%lo(3, i), self%hi(3, i)
         do b = self%lo(2, i), self%hi(2, i)
@@ -193,7 +242,23 @@ contains
         end do
       end do
     end do
-  end subroutine cells_rebuild_lists
+    do k = 1, self%n_touched
+      if (self%touched_ids(k) <= size(self%touched)) self%touched(self%touched_ids(k)) = .false.
+    end do
+    self%n_touched = 0
+  end subroutine cells_restore_finish
+
+  !> While journaling: body i is about to be placed or unplaced.
+  subroutine note(self, i)
+    type(cell_grid_t), intent(inout) :: self
+    integer, intent(in) :: i
+    if (.not. self%journaling) return
+    if (self%touched(i)) return
+    self%touched(i) = .true.
+    if (self%n_touched == size(self%touched_ids)) call grow_list(self%touched_ids)
+    self%n_touched = self%n_touched + 1
+    self%touched_ids(self%n_touched) = i
+  end subroutine note
 
   !> Room for bodies up to n.
   subroutine cells_grow_bodies(self, n)
@@ -216,6 +281,12 @@ contains
     call move_alloc(r1, self%lower); call move_alloc(r2, self%upper)
     call move_alloc(k1, self%lo); call move_alloc(k2, self%hi)
     call move_alloc(m, self%mark)
+    if (allocated(self%touched)) then
+      allocate (l1(n))
+      l1 = .false.
+      l1(1:old) = self%touched
+      call move_alloc(l1, self%touched)
+    end if
   end subroutine cells_grow_bodies
 
   !> The bodies were renumbered (a migration): body i is now new_index(i), 0 if it left, of
@@ -284,6 +355,10 @@ contains
     allocate (self%mark(n_bodies))
     self%mark = 0
     self%mark_stamp = 0
+    ! (a journal's body numbers mean nothing after a renumbering)
+    self%journaling = .false.
+    self%n_touched = 0
+    if (allocated(self%touched)) deallocate (self%touched)
   contains
     integer function renamed(id)
       integer, intent(in) :: id
@@ -299,6 +374,7 @@ contains
     real(dp), intent(in) :: lower(3), upper(3)
     type(error_t), intent(inout) :: err
     integer(i8) :: a, b, c
+    call note(self, i)
     if (self%placed(i)) call self%unplace(i)
     if (.not. (all(ieee_is_finite(lower)) .and. all(ieee_is_finite(upper)))) then
       call err%set(ERR_NUMERIC, 'cell grid: a body''s region is not finite (a position became NaN or Inf)')
@@ -340,6 +416,7 @@ contains
     integer(i8) :: a, b, c
     integer :: k
     if (.not. self%placed(i)) return
+    call note(self, i)
     self%placed(i) = .false.
     if (self%large(i)) then
       do k = 1, self%n_large
