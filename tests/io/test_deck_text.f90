@@ -4,7 +4,7 @@
 !> random doubles over the whole exponent range, on short decimals (deck values: 0.05,
 !> 9.81), on exact ties of the decimal rounding (0.125, 2^-k: the case the fast path hands
 !> to the reference), powers of two (an uneven rounding interval), subnormals and the
-!> largest doubles; and every text reads back as the value, bit for bit. A fast path that
+!> largest doubles, integral values (their own fast path, below 2^53); and every text reads back as the value, bit for bit. A fast path that
 !> rounded a tie the wrong way, dropped a carry (9.999... -> 10.0) or lost a digit fails
 !> here with the value in hex. Timed too (a line, not a check): the fast path is what keeps
 !> the effective deck of 10^5 bodies out of every checkpoint's wall time.
@@ -53,6 +53,18 @@ program test_deck_text
     call compare(nearest(x, 1.0_dp))
     if (e > -1074) call compare(nearest(x, -1.0_dp))
   end do
+  ! integral values (the fast path of deck defaults: -1, 1, 1000), up to 2^53 and past it
+  do k = 1, 20000
+    call compare(real(int(rng%uniform()*1.0e6_dp), dp) - 5.0e5_dp)
+    call compare(aint(rng%uniform()*2.0_dp**53))
+    call compare(aint(rng%uniform()*10.0_dp**int(rng%uniform()*16.0_dp)))
+  end do
+  call compare(-1.0_dp)
+  call compare(2.0_dp**53 - 1.0_dp)
+  call compare(2.0_dp**53)
+  call compare(2.0_dp**53 + 2.0_dp)
+  call compare(1.0e15_dp)
+  call compare(123456789012345.0_dp)
   call compare(9.5_dp)
   call compare(nearest(1.0_dp, -1.0_dp))
   call compare(nearest(10.0_dp, -1.0_dp))

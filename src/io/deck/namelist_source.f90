@@ -1068,7 +1068,14 @@ contains
     end if
     io = .false.
     if (present(by_io)) io = by_io
-    call shortest_digits(abs(x), io, digits, n_digits, exponent)
+    if (.not. io .and. abs(x) < 2.0_dp**53 .and. x == aint(x)) then
+      ! An integral value below 2^53 (most deck defaults: -1, 1, 1000): its shortest digits
+      ! are its own, trailing zeros dropped, since every other decimal with as few digits
+      ! is at least 1 away and doubles there are at most 1 apart.
+      call integral_digits(int(abs(x), i8), digits, n_digits, exponent)
+    else
+      call shortest_digits(abs(x), io, digits, n_digits, exponent)
+    end if
     text = decimal_text(digits(1:n_digits), exponent)
     if (x < 0.0_dp) text = '-'//text
   end function real_text
@@ -1081,6 +1088,33 @@ contains
   !> test of a candidate: by_io, the reference (a write of p digits and a READ of it), else
   !> the fast one (p digits rounded from one 21-digit write, tried with strtod), which
   !> hands the search to the reference where its rounding is in doubt.
+  !> The decimal digits of m > 0 without its trailing zeros, and the exponent of the first
+  !> (m = digits(1:n) x 10^(exponent - n + 1)), as shortest_digits gives them.
+  pure subroutine integral_digits(m, digits, n, exponent)
+    integer(i8), intent(in) :: m
+    character(len=20), intent(out) :: digits
+    integer, intent(out) :: n, exponent
+    character(len=20) :: reversed
+    integer(i8) :: rest
+    integer :: k, length
+    rest = m
+    length = 0
+    do while (rest > 0)
+      length = length + 1
+      reversed(length:length) = achar(iachar('0') + int(mod(rest, 10_i8)))
+      rest = rest/10_i8
+    end do
+    exponent = length - 1
+    digits = ''
+    do k = 1, length
+      digits(k:k) = reversed(length - k + 1:length - k + 1)
+    end do
+    n = length
+    do while (n > 1 .and. digits(n:n) == '0')
+      n = n - 1
+    end do
+  end subroutine integral_digits
+
   subroutine shortest_digits(x, by_io, digits, n, exponent)
     real(dp), intent(in) :: x
     logical, intent(in) :: by_io
