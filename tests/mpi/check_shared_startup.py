@@ -53,16 +53,23 @@ overlaps = deck("overlaps.nml", """&run t_end = 0.1, dt_max = 0.01 /
 &body name = 'intruder', shape = 'sphere', radius = 0.1, density = 1000.0, position = 24.55, 1.5, 0.5 /
 &body name = 'spike', shape = 'box', size = 0.9, 0.05, 0.05, density = 1000.0, position = 6.0, 1.0, 1.0 /
 """)
-errors = {}
-for ranks in (1, 2, 3, 4):
-    proc = run(ranks, overlaps, f"overlaps_{ranks}")
-    if proc is None:
-        continue
-    lines = [l for l in proc.stderr.splitlines() if l.startswith("ricochet: error")]
-    c.check(proc.returncode != 0, f"{ranks} rank(s): overlapping bodies stop the run (exit {proc.returncode})")
+def error_lines(path, tag):
+    """{ranks: the error lines} of runs of a faulty deck on 1 to 4 ranks, each checked to
+    stop (non-zero exit)."""
+    found = {}
+    for ranks in (1, 2, 3, 4):
+        proc = run(ranks, path, f"{tag}_{ranks}")
+        if proc is None:
+            continue
+        c.check(proc.returncode != 0, f"{tag} on {ranks} rank(s): the run stops (exit {proc.returncode})")
+        found[ranks] = [l for l in proc.stderr.splitlines() if l.startswith("ricochet: error")]
+    return found
+
+
+errors = error_lines(overlaps, "overlaps")
+for ranks, lines in errors.items():
     c.check(len(lines) == 1 and "overlap at the start" in lines[0],
             f"{ranks} rank(s): one error line from rank 0 naming the overlap, got {lines}")
-    errors[ranks] = lines
 for ranks in (2, 3, 4):
     if ranks in errors and 1 in errors:
         c.check(errors[ranks] == errors[1], f"{ranks} ranks name the bodies one rank names: {errors[ranks]} "
@@ -109,15 +116,9 @@ cases = {"last_block": bodies(bad=(7,)) + ["&contact restitution = 2.0 /"],
          "same_name": bodies(same_name=True)}
 for name, lines in cases.items():
     path = deck(f"shared_{name}.nml", "\n".join(lines) + "\n")
-    errors = {}
-    for ranks in (1, 2, 3, 4):
-        proc = run(ranks, path, f"shared_{name}_{ranks}")
-        if proc is None:
-            continue
-        err_lines = [l for l in proc.stderr.splitlines() if l.startswith("ricochet: error")]
-        c.check(proc.returncode != 0 and len(err_lines) == 1,
-                f"deck {name} on {ranks} rank(s): stops with one error line (exit {proc.returncode}: {err_lines})")
-        errors[ranks] = err_lines
+    errors = error_lines(path, f"shared_{name}")
+    for ranks, err_lines in errors.items():
+        c.check(len(err_lines) == 1, f"deck {name} on {ranks} rank(s): one error line: {err_lines}")
     want = {"last_block": "&body", "first_and_last": "&body", "same_name": "already used by &body #1"}[name]
     c.check(1 in errors and len(errors[1]) == 1 and want in errors[1][0],
             f"deck {name} on 1 rank: the error names {want!r}: {errors.get(1)}")
