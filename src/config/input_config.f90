@@ -87,6 +87,7 @@ module input_config
   end type output_config_t
 
   !> One &body group: a body, or a lattice of copies of it.
+  !> (No allocatable component: run/shared_deck gathers specs across ranks as their bits.)
   type :: body_spec_t
     character(len=name_length) :: name = ''
     !> 'sphere', 'box', 'cylinder', 'tetrahedron', 'torus', 'l_prism', 'mesh'

@@ -72,9 +72,11 @@ module cell_grid
     procedure :: start_journal => cells_start_journal
     procedure :: restore_prepare => cells_restore_prepare
     procedure :: restore_finish => cells_restore_finish
+    procedure :: stop_journal => cells_stop_journal
   end type cell_grid_t
 
-  !> A grid's box table held apart from it (cell_grid_t swap_table): see rebuild_lists.
+  !> A grid's box table held apart from it (cell_grid_t swap_table): see restore_prepare
+  !> and restore_finish.
   type :: cell_lists_t
     private
     integer, allocatable :: cell_n(:), cell_at(:), cell_cap(:), pool(:)
@@ -216,10 +218,20 @@ contains
 
   !> Before a grid's other components are restored from a copy taken at start_journal
   !> (with the tables set aside: swap_table): the bodies placed or unplaced since leave the
-  !> lists (at the ranges they have now).
+  !> lists (at the ranges they have now). A grid not journaling (renumbered since, or never
+  !> started) empties its table instead, and restore_finish lists every body again
+  !> (n_touched = -1 marks it, carried through the copy with the table).
   subroutine cells_restore_prepare(self)
     class(cell_grid_t), intent(inout) :: self
     integer :: k
+    if (.not. self%journaling) then
+      if (allocated(self%slot_used)) self%slot_used = .false.
+      self%n_used = 0
+      self%pool_top = 0
+      self%pool_live = 0
+      self%n_touched = -1
+      return
+    end if
     do k = 1, self%n_touched
       call self%unplace(self%touched_ids(k))
     end do
@@ -229,11 +241,27 @@ contains
   !> lists are then those of the copy's time, and the journal starts again from there.
   subroutine cells_restore_finish(self)
     class(cell_grid_t), intent(inout) :: self
-    integer :: k, i
-    integer(i8) :: a, b, c
+    integer :: k
+    if (self%n_touched < 0) then
+      ! (no journal: every body listed again from its restored range)
+      do k = 1, size(self%placed)
+        call list_again(k)
+      end do
+      self%n_touched = 0
+      return
+    end if
     do k = 1, self%n_touched
-      i = self%touched_ids(k)
-      if (.not. self%placed(i) .or. self%large(i)) cycle
+      call list_again(self%touched_ids(k))
+    end do
+    do k = 1, self%n_touched
+      if (self%touched_ids(k) <= size(self%touched)) self%touched(self%touched_ids(k)) = .false.
+    end do
+    self%n_touched = 0
+  contains
+    subroutine list_again(i)
+      integer, intent(in) :: i
+      integer(i8) :: a, b, c
+      if (.not. self%placed(i) .or. self%large(i)) return
       do c = self%lo(3, i), self%hi(3, i)
         do b = self%lo(2, i), self%hi(2, i)
           do a = self%lo(1, i), self%hi(1, i)
@@ -241,12 +269,21 @@ contains
           end do
         end do
       end do
-    end do
-    do k = 1, self%n_touched
-      if (self%touched_ids(k) <= size(self%touched)) self%touched(self%touched_ids(k)) = .false.
-    end do
-    self%n_touched = 0
+    end subroutine list_again
   end subroutine cells_restore_finish
+
+  !> No more journal (between cross-rank windows).
+  subroutine cells_stop_journal(self)
+    class(cell_grid_t), intent(inout) :: self
+    integer :: k
+    if (self%journaling) then
+      do k = 1, self%n_touched
+        self%touched(self%touched_ids(k)) = .false.
+      end do
+    end if
+    self%n_touched = 0
+    self%journaling = .false.
+  end subroutine cells_stop_journal
 
   !> While journaling: body i is about to be placed or unplaced.
   subroutine note(self, i)
@@ -582,9 +619,12 @@ contains
     integer, intent(in) :: cap
     integer, allocatable :: packed(:)
     integer :: s, at, new_size
+    integer(i8) :: wanted
+    ! (in 64 bits: twice the rooms passes 2^31 entries long before the pool's indices do)
+    wanted = min(2_i8*(int(self%pool_live, i8) + cap), int(huge(0), i8))
     new_size = size(self%pool)
-    do while (new_size < 2*(self%pool_live + cap))
-      new_size = 2*new_size
+    do while (new_size < wanted)
+      new_size = int(min(2_i8*new_size, int(huge(0), i8)))
     end do
     if (2*self%pool_live <= self%pool_top) then
       allocate (packed(new_size))

@@ -28,8 +28,8 @@ module free_flight
     !> than gravity (gravity plus the contact force the contact solve found): accel(:, i).
     logical, allocatable :: loaded(:)
     real(dp), allocatable :: accel(:, :)           !< [m/s^2] where loaded
-    !> An undo journal (a cross-rank window's save, docs/architecture.md "The window's
-    !> save"): while journaling, the first change of a body's record since start_journal
+    !> An undo journal (a cross-rank window's save: docs/architecture.md, "Cross-rank
+    !> contacts: windows with ghosts", step 4): while journaling, the first change of a body's record since start_journal
     !> keeps the record as it was (its anchor_words), and roll_back puts every such record
     !> back, bit for bit: O(records changed) instead of a copy of every record (40 MB of
     !> rotors for 50,000 bodies).
@@ -324,6 +324,10 @@ contains
       do m = 1, self%n_journal
         self%journaled(self%journal_row(m)) = .false.
       end do
+    end if
+    if (allocated(self%journal_words)) then
+      ! (a record's width follows the mode: exact records carry the rotor)
+      if (size(self%journal_words, 1) /= self%anchor_words()) deallocate (self%journal_row, self%journal_words)
     end if
     if (.not. allocated(self%journal_row)) allocate (self%journal_row(64), self%journal_words(self%anchor_words(), 64))
     self%n_journal = 0

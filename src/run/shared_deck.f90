@@ -28,7 +28,9 @@ contains
     character(len=:), allocatable :: message
     integer :: failed, code, first, last, n_words
     type(body_spec_t) :: probe
-    if (par%n_ranks == 1) then
+    ! (a spec travels as its bits in 64-bit words: a whole number of them, no allocatable
+    ! component; otherwise every rank parses every group, as one rank does)
+    if (par%n_ranks == 1 .or. mod(storage_size(probe), 64) /= 0) then
       call read_deck(path, deck, err)
       return
     end if

@@ -283,6 +283,7 @@ contains
     type(checkpoint_meta_t) :: meta
     integer(i8) :: first, last, pair(2)
     logical :: contacts, local, tried
+    real(dp) :: h_brick
     character(len=:), allocatable :: why
     integer :: k
 
@@ -337,7 +338,9 @@ contains
       tried = contacts .and. local .and. cross_contacts_built(deck, self%collisions)
       if (tried) then
         ! bodies of different bricks may meet: exact windows with ghosts (no contact passes)
-        call decompose(self, par, everyone, err, cross_box_size(self, everyone))
+        ! (the box first: cross_box_size keeps R_max and the skin in self)
+        h_brick = cross_box_size(self, everyone)
+        call decompose(self, par, everyone, err, h_brick)
         if (err%failed()) return
         self%cross_windows = self%decomposed
         if (self%decomposed) then

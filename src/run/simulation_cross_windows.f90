@@ -197,6 +197,7 @@ contains
       end if
       self%events%cross_mode = CROSS_OFF
       call self%propagator%stop_journal()
+      call self%events%cells%stop_journal()
       ! the next window starts light (only the ghosts that changed come again, and the bodies
       ! that came near a neighbouring brick) unless a body left its brick somewhere
       need_full = par%any(self%events%halo_exit_seen)

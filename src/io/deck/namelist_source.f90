@@ -1080,14 +1080,6 @@ contains
     if (x < 0.0_dp) text = '-'//text
   end function real_text
 
-  !> The fewest significant digits (digits(1:n), first nonzero, last nonzero unless n = 1)
-  !> and the decimal exponent of the first such that digits * 10^(exponent - n + 1) reads
-  !> back as x (x > 0, finite); see real_text. One search (1 to 3 digits, then a bisection
-  !> of 4 to 17: round-tripping is monotone in the number of digits but at some powers of
-  !> two, whose rounding interval is uneven, so both paths must search alike) over either
-  !> test of a candidate: by_io, the reference (a write of p digits and a READ of it), else
-  !> the fast one (p digits rounded from one 21-digit write, tried with strtod), which
-  !> hands the search to the reference where its rounding is in doubt.
   !> The decimal digits of m > 0 without its trailing zeros, and the exponent of the first
   !> (m = digits(1:n) x 10^(exponent - n + 1)), as shortest_digits gives them.
   pure subroutine integral_digits(m, digits, n, exponent)
@@ -1115,6 +1107,14 @@ contains
     end do
   end subroutine integral_digits
 
+  !> The fewest significant digits (digits(1:n), first nonzero, last nonzero unless n = 1)
+  !> and the decimal exponent of the first such that digits * 10^(exponent - n + 1) reads
+  !> back as x (x > 0, finite); see real_text. One search (1 to 3 digits, then a bisection
+  !> of 4 to 17: round-tripping is monotone in the number of digits but at some powers of
+  !> two, whose rounding interval is uneven, so both paths must search alike) over either
+  !> test of a candidate: by_io, the reference (a write of p digits and a READ of it), else
+  !> the fast one (p digits rounded from one 21-digit write, tried with strtod), which
+  !> hands the search to the reference where its rounding is in doubt.
   subroutine shortest_digits(x, by_io, digits, n, exponent)
     real(dp), intent(in) :: x
     logical, intent(in) :: by_io
