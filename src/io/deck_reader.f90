@@ -42,7 +42,7 @@ module deck_reader
   use body_group, only: read_body_group, write_body_group
   implicit none
   private
-  public :: read_deck, check_deck_bodies, write_effective_deck, effective_deck_lines, DECK_AUTO
+  public :: read_deck, share_block, check_deck_bodies, write_effective_deck, effective_deck_lines, DECK_AUTO
 
 contains
 
@@ -82,8 +82,7 @@ contains
     first_body = 1
     last_body = deck%n_bodies
     if (present(share)) then
-      first_body = int(int(deck%n_bodies, i8)*share(1)/share(2)) + 1
-      last_body = int(int(deck%n_bodies, i8)*(share(1) + 1)/share(2))
+      call share_block(deck%n_bodies, share, first_body, last_body)
     end if
     i_body = 0
     ! Groups are read in deck order so that the first error reported is the first in the file.
@@ -118,6 +117,15 @@ contains
     ! &output resolved it already: the path is absolute).
     deck%output%dir = resolve_path(deck%folder, deck%output%dir)
   end subroutine read_deck
+
+  !> The &body groups first..last (of n) that rank share(1) of share(2) parses in read_deck's
+  !> share: contiguous blocks in rank order, so that their concatenation is the deck's order.
+  pure subroutine share_block(n, share, first, last)
+    integer, intent(in) :: n, share(2)
+    integer, intent(out) :: first, last
+    first = int(int(n, i8)*share(1)/share(2)) + 1
+    last = int(int(n, i8)*(share(1) + 1)/share(2))
+  end subroutine share_block
 
   !> Checks across bodies: distinct names, a total count that fits an integer. Names are
   !> compared after sorting (n log n: decks written by tools may hold many &body groups).

@@ -10,7 +10,7 @@ module shared_deck
   use kinds, only: i8
   use error_status, only: error_t
   use input_config, only: deck_t, body_spec_t
-  use deck_reader, only: read_deck, check_deck_bodies
+  use deck_reader, only: read_deck, share_block, check_deck_bodies
   use parallel_env, only: parallel_t
   implicit none
   private
@@ -54,8 +54,7 @@ contains
     ! this rank's block of body specs as words (a body_spec_t holds no allocatable: its bits
     ! are the whole of it), gathered in rank order: the deck's order
     n_words = size(transfer(probe, [0_i8]))
-    first = int(int(deck%n_bodies, i8)*par%rank/par%n_ranks) + 1
-    last = int(int(deck%n_bodies, i8)*(par%rank + 1)/par%n_ranks)
+    call share_block(deck%n_bodies, [par%rank, par%n_ranks], first, last)
     allocate (mine(n_words, last - first + 1))
     if (last >= first) mine = reshape(transfer(deck%bodies(first:last), [0_i8]), shape(mine))
     call par%allgather_records(mine, all)
