@@ -9,8 +9,15 @@
 !>
 !> Order: (time, tie(1), tie(2), handle) lexicographically. Measured against a calendar
 !> queue in docs/architecture.md ("The queue").
+!>
+!> An undo journal (start_journal, roll_back, stop_journal: a cross-rank window's save)
+!> keeps the first change of each handle's entry (position, time, tie-breaks) since its
+!> start. The heap array needs no journal of its own: a heap position is written only when
+!> the handle that held it moves or leaves, so putting every kept handle back at its old
+!> position puts back every position that changed.
 module event_queue
   use kinds, only: dp, i8
+  use row_journal, only: row_journal_t
   implicit none
   private
   public :: event_queue_t
@@ -21,6 +28,8 @@ module event_queue
     integer, allocatable :: pos(:)            !< heap position of each handle, 0 if absent
     real(dp), allocatable :: time(:)          !< per handle: its event time [s]
     integer(i8), allocatable :: tie(:, :)     !< per handle: (2) tie-breaks
+    type(row_journal_t) :: journal            !< per handle: pos, time, tie(2) as they were
+    integer :: journal_n = 0                  !< n at the journal's start
   contains
     procedure :: init => queue_init
     procedure :: free => queue_free
@@ -34,6 +43,9 @@ module event_queue
     procedure :: time_of => queue_time_of
     procedure :: check_heap => queue_check_heap
     procedure :: remap_handles => queue_remap_handles
+    procedure :: start_journal => queue_start_journal
+    procedure :: roll_back => queue_roll_back
+    procedure :: stop_journal => queue_stop_journal
   end type event_queue_t
 
 contains
@@ -43,6 +55,7 @@ contains
     class(event_queue_t), intent(inout) :: self
     integer, intent(in) :: capacity
     call self%free()
+    call self%journal%stop()
     allocate (self%heap(max(capacity, 16)), self%pos(max(capacity, 16)), self%time(max(capacity, 16)), &
               self%tie(2, max(capacity, 16)))
     self%pos = 0
@@ -100,6 +113,7 @@ contains
     integer :: p
     if (.not. allocated(self%heap)) call self%init(max(16, handle))
     if (handle > size(self%pos)) call grow(self, handle)
+    call note(self, handle)
     p = self%pos(handle)
     if (p == 0) then
       if (self%n == size(self%heap)) call grow(self, size(self%pos))
@@ -125,6 +139,8 @@ contains
     if (.not. self%holds(handle)) return
     p = self%pos(handle)
     last = self%heap(self%n)
+    call note(self, handle)
+    call note(self, last)
     self%pos(handle) = 0
     self%n = self%n - 1
     if (p > self%n) return          ! it was the last one
@@ -158,6 +174,7 @@ contains
     real(dp), allocatable :: time(:)
     integer(i8), allocatable :: tie(:, :)
     integer :: p, h, nh, n, c
+    call self%journal%stop()     ! (renumbered handles: a journal kept before means nothing now)
     if (.not. allocated(self%heap)) then
       call self%init(capacity)
       return
@@ -227,9 +244,11 @@ contains
     integer :: p, parent, h
     p = start
     h = self%heap(p)
+    call note(self, h)
     do while (p > 1)
       parent = p/2
       if (.not. before(self, h, self%heap(parent))) exit
+      call note(self, self%heap(parent))
       self%heap(p) = self%heap(parent)
       self%pos(self%heap(p)) = p
       p = parent
@@ -244,6 +263,7 @@ contains
     integer :: p, child, h
     p = start
     h = self%heap(p)
+    call note(self, h)
     do
       child = 2*p
       if (child > self%n) exit
@@ -251,6 +271,7 @@ contains
         if (before(self, self%heap(child + 1), self%heap(child))) child = child + 1
       end if
       if (.not. before(self, self%heap(child), h)) exit
+      call note(self, self%heap(child))
       self%heap(p) = self%heap(child)
       self%pos(self%heap(p)) = p
       p = child
@@ -258,6 +279,55 @@ contains
     self%heap(p) = h
     self%pos(h) = p
   end subroutine sift_down
+
+  !> While journaling: handle h's entry is about to change; the first time since the
+  !> journal's start, it is kept as it is now.
+  subroutine note(self, h)
+    type(event_queue_t), intent(inout) :: self
+    integer, intent(in) :: h
+    integer :: m
+    if (.not. self%journal%active) return
+    m = self%journal%keep(h)
+    if (m == 0) return
+    self%journal%words(1, m) = self%pos(h)
+    self%journal%words(2, m) = transfer(self%time(h), 1_i8)
+    self%journal%words(3:4, m) = self%tie(:, h)
+  end subroutine note
+
+  !> From now on the first change of each handle's entry is kept, until roll_back or
+  !> stop_journal (the queue as it is now: the state roll_back returns to).
+  subroutine queue_start_journal(self)
+    class(event_queue_t), intent(inout) :: self
+    if (.not. allocated(self%pos)) call self%init(16)
+    call self%journal%start(size(self%pos), 4)
+    self%journal_n = self%n
+  end subroutine queue_start_journal
+
+  !> No more journal (what it kept is dropped).
+  subroutine queue_stop_journal(self)
+    class(event_queue_t), intent(inout) :: self
+    call self%journal%stop()
+  end subroutine queue_stop_journal
+
+  !> The queue back as it was at start_journal, bit for bit in heap(1:n), pos, time and tie
+  !> of every handle; the journal goes on from there. O(changes since the start).
+  subroutine queue_roll_back(self)
+    class(event_queue_t), intent(inout) :: self
+    integer :: m, h
+    if (.not. self%journal%active) return
+    do m = 1, self%journal%n
+      h = self%journal%ids(m)
+      self%pos(h) = int(self%journal%words(1, m))
+      self%time(h) = transfer(self%journal%words(2, m), 1.0_dp)
+      self%tie(:, h) = self%journal%words(3:4, m)
+    end do
+    self%n = self%journal_n
+    do m = 1, self%journal%n
+      h = self%journal%ids(m)
+      if (self%pos(h) > 0) self%heap(self%pos(h)) = h
+    end do
+    call self%journal%clear()
+  end subroutine queue_roll_back
 
   !> Room for handles up to at least `needed` (doubling).
   subroutine grow(self, needed)

@@ -11,8 +11,14 @@
 !>
 !> Each body lists its pairs (an intrusive singly linked list through the slots: a body has
 !> a few tens of pairs at most, so walking is cheaper than a hash). Freed slots are reused.
+!>
+!> An undo journal (start_journal, roll_back, stop_journal: a cross-rank window's save,
+!> docs/architecture.md step 4) keeps the first change of every slot, body list head and
+!> free-list entry since its start. The store's own procedures note their writes; a caller
+!> writing a slot's fields (a certificate) calls touch(slot) first.
 module pair_store
   use kinds, only: dp, i8
+  use row_journal, only: row_journal_t
   implicit none
   private
   public :: pair_store_t
@@ -41,6 +47,10 @@ module pair_store
     real(dp), allocatable :: certified_until(:) !< the certificate holds up to here [s] (the audit's check)
     integer, allocatable :: action(:)           !< ACTION_*
     logical, allocatable :: in_pass(:)          !< the contact pass of the island step solved it
+    !> the undo journal: slot rows, body rows (head, degree), free-list positions, and the
+    !> counts at its start
+    type(row_journal_t) :: slot_journal, body_journal, free_journal
+    integer :: journal_counts(3) = 0
   contains
     procedure :: init => store_init
     procedure :: free => store_free
@@ -53,7 +63,15 @@ module pair_store
     procedure :: grow_bodies => store_grow_bodies
     procedure :: remap_bodies => store_remap_bodies
     procedure :: check => store_check
+    procedure :: touch => store_touch
+    procedure :: start_journal => store_start_journal
+    procedure :: roll_back => store_roll_back
+    procedure :: stop_journal => store_stop_journal
   end type pair_store_t
+
+  !> words of a slot's row in the journal: a, b, next(2), action, far, in_pass, stamp(2),
+  !> t_query, gap, normal(3), t_due, certified_until
+  integer, parameter :: slot_words = 16
 
 contains
 
@@ -62,6 +80,7 @@ contains
     integer, intent(in) :: n_bodies, capacity
     integer :: c
     call self%free()
+    call self%stop_journal()
     c = max(capacity, 16)
     allocate (self%a(c), self%b(c), self%next(2, c), self%free_slots(c), self%stamp(2, c), self%t_query(c), &
               self%gap(c), self%normal(3, c), self%far(c), self%t_due(c), self%action(c), self%in_pass(c), &
@@ -117,6 +136,7 @@ contains
     integer, allocatable :: head(:), degree(:), tail(:), next(:, :)
     integer :: i, slot, ni, old_a, old_b
     logical, allocatable :: keep(:)
+    call self%stop_journal()     ! (renumbered rows: a journal kept before means nothing now)
     allocate (keep(self%n_slots), head(max(n_bodies, 1)), degree(max(n_bodies, 1)), tail(max(n_bodies, 1)), &
               next(2, size(self%a)), dropped(16))
     head = 0
@@ -201,6 +221,9 @@ contains
       self%n_slots = self%n_slots + 1
       slot = self%n_slots
     end if
+    call self%touch(slot)
+    call touch_body(self, lo)
+    call touch_body(self, hi)
     self%a(slot) = lo
     self%b(slot) = hi
     self%next(1, slot) = self%head(lo)
@@ -225,6 +248,9 @@ contains
   subroutine store_remove(self, slot)
     class(pair_store_t), intent(inout) :: self
     integer, intent(in) :: slot
+    call self%touch(slot)
+    call touch_body(self, self%a(slot))
+    call touch_body(self, self%b(slot))
     call unlink(self, self%a(slot), slot)
     call unlink(self, self%b(slot), slot)
     self%degree(self%a(slot)) = self%degree(self%a(slot)) - 1
@@ -233,6 +259,7 @@ contains
     self%b(slot) = 0
     if (self%n_free == size(self%free_slots)) call grow_free(self)
     self%n_free = self%n_free + 1
+    call touch_free(self, self%n_free)
     self%free_slots(self%n_free) = slot
     self%n_live = self%n_live - 1
   end subroutine store_remove
@@ -314,6 +341,113 @@ contains
     if (count(self%a(1:self%n_slots) > 0) /= self%n_live) ok = .false.
   end function store_check
 
+  !> While journaling: slot's row is about to change; the first time since the journal's
+  !> start, it is kept as it is now.
+  subroutine store_touch(self, slot)
+    class(pair_store_t), intent(inout) :: self
+    integer, intent(in) :: slot
+    integer :: m
+    integer(i8), parameter :: mold = 0_i8
+    if (.not. self%slot_journal%active) return
+    m = self%slot_journal%keep(slot)
+    if (m == 0) return
+    associate (w => self%slot_journal%words(:, m))
+      w(1) = self%a(slot)
+      w(2) = self%b(slot)
+      w(3:4) = self%next(:, slot)
+      w(5) = self%action(slot)
+      w(6) = merge(1_i8, 0_i8, self%far(slot))
+      w(7) = merge(1_i8, 0_i8, self%in_pass(slot))
+      w(8:9) = self%stamp(:, slot)
+      w(10) = transfer(self%t_query(slot), mold)
+      w(11) = transfer(self%gap(slot), mold)
+      w(12:14) = transfer(self%normal(:, slot), mold, 3)
+      w(15) = transfer(self%t_due(slot), mold)
+      w(16) = transfer(self%certified_until(slot), mold)
+    end associate
+  end subroutine store_touch
+
+  !> While journaling: body i's list head and degree are about to change.
+  subroutine touch_body(self, i)
+    type(pair_store_t), intent(inout) :: self
+    integer, intent(in) :: i
+    integer :: m
+    if (.not. self%body_journal%active) return
+    m = self%body_journal%keep(i)
+    if (m == 0) return
+    self%body_journal%words(1, m) = self%head(i)
+    self%body_journal%words(2, m) = self%degree(i)
+  end subroutine touch_body
+
+  !> While journaling: position p of the free list is about to be written.
+  subroutine touch_free(self, p)
+    type(pair_store_t), intent(inout) :: self
+    integer, intent(in) :: p
+    integer :: m
+    if (.not. self%free_journal%active) return
+    m = self%free_journal%keep(p)
+    if (m == 0) return
+    self%free_journal%words(1, m) = self%free_slots(p)
+  end subroutine touch_free
+
+  !> From now on the first change of each slot, list head and free-list entry is kept, until
+  !> roll_back or stop_journal (the store as it is now: the state roll_back returns to).
+  subroutine store_start_journal(self)
+    class(pair_store_t), intent(inout) :: self
+    call self%slot_journal%start(size(self%a), slot_words)
+    call self%body_journal%start(size(self%head), 2)
+    call self%free_journal%start(size(self%free_slots), 1)
+    self%journal_counts = [self%n_slots, self%n_live, self%n_free]
+  end subroutine store_start_journal
+
+  !> No more journal (what it kept is dropped).
+  subroutine store_stop_journal(self)
+    class(pair_store_t), intent(inout) :: self
+    call self%slot_journal%stop()
+    call self%body_journal%stop()
+    call self%free_journal%stop()
+  end subroutine store_stop_journal
+
+  !> The store back as it was at start_journal, bit for bit in every slot, list and free-list
+  !> entry up to the counts of then (slots beyond n_slots are never read); the journal goes
+  !> on from there. O(changes since the start).
+  subroutine store_roll_back(self)
+    class(pair_store_t), intent(inout) :: self
+    integer :: m, slot, i
+    if (.not. self%slot_journal%active) return
+    do m = 1, self%slot_journal%n
+      slot = self%slot_journal%ids(m)
+      associate (w => self%slot_journal%words(:, m))
+        self%a(slot) = int(w(1))
+        self%b(slot) = int(w(2))
+        self%next(:, slot) = int(w(3:4))
+        self%action(slot) = int(w(5))
+        self%far(slot) = w(6) /= 0
+        self%in_pass(slot) = w(7) /= 0
+        self%stamp(:, slot) = w(8:9)
+        self%t_query(slot) = transfer(w(10), 1.0_dp)
+        self%gap(slot) = transfer(w(11), 1.0_dp)
+        self%normal(:, slot) = transfer(w(12:14), 1.0_dp, 3)
+        self%t_due(slot) = transfer(w(15), 1.0_dp)
+        self%certified_until(slot) = transfer(w(16), 1.0_dp)
+      end associate
+    end do
+    do m = 1, self%body_journal%n
+      i = self%body_journal%ids(m)
+      self%head(i) = int(self%body_journal%words(1, m))
+      self%degree(i) = int(self%body_journal%words(2, m))
+    end do
+    do m = 1, self%free_journal%n
+      self%free_slots(self%free_journal%ids(m)) = int(self%free_journal%words(1, m))
+    end do
+    self%n_slots = self%journal_counts(1)
+    self%n_live = self%journal_counts(2)
+    self%n_free = self%journal_counts(3)
+    call self%slot_journal%clear()
+    call self%body_journal%clear()
+    call self%free_journal%clear()
+  end subroutine store_roll_back
+
   subroutine unlink(self, i, slot)
     type(pair_store_t), intent(inout) :: self
     integer, intent(in) :: i, slot
@@ -325,8 +459,10 @@ contains
         if (previous == 0) then
           self%head(i) = self%next_of(s, i)
         else if (self%a(previous) == i) then
+          call self%touch(previous)
           self%next(1, previous) = self%next_of(s, i)
         else
+          call self%touch(previous)
           self%next(2, previous) = self%next_of(s, i)
         end if
         return

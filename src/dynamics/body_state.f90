@@ -11,9 +11,13 @@ module body_state
   use error_status, only: error_t, ERR_INTERNAL
   use sorting, only: sort_index_keys
   use string_utils, only: str
+  use row_journal, only: row_journal_t
   implicit none
   private
   public :: bodies_t, copy_row
+
+  !> words of a row in the undo journal: x(3), q(4), v(3), w(3), a(3), alpha(3), asleep
+  integer, parameter :: journal_width = 20
 
   type :: bodies_t
     integer :: n_owned = 0
@@ -35,6 +39,13 @@ module body_state
     real(dp), allocatable :: w(:, :)            !< (3,n) angular velocity, world frame [rad/s]
     real(dp), allocatable :: a(:, :)            !< (3,n) linear acceleration (Newmark state) [m/s^2]
     real(dp), allocatable :: alpha(:, :)        !< (3,n) angular acceleration, world (Newmark state) [rad/s^2]
+    !> An undo journal of the motion state (a cross-rank window's save, docs/architecture.md
+    !> "Cross-rank contacts: windows with ghosts", step 4): while it runs, touch(i) before a
+    !> change of row i keeps the row's x, q, v, w, a, alpha and asleep as they were, the first
+    !> time; roll_back puts them back (the rows held are those of the start: a window adds
+    !> none). The event loop touches every row it evaluates or changes (sync, count_change).
+    type(row_journal_t) :: journal
+    integer :: journal_rows(2) = 0              !< n_owned, n_ghost at the journal's start
   contains
     procedure :: allocate => bodies_allocate
     procedure :: free => bodies_free
@@ -51,6 +62,10 @@ module body_state
     procedure, private :: remove_rows_mask => bodies_remove_rows_mask
     procedure, private :: remove_rows_list => bodies_remove_rows_list
     procedure :: sort_owned_by_gid => bodies_sort_owned_by_gid
+    procedure :: touch => bodies_touch
+    procedure :: start_journal => bodies_start_journal
+    procedure :: roll_back => bodies_roll_back
+    procedure :: stop_journal => bodies_stop_journal
   end type bodies_t
 
 contains
@@ -338,5 +353,67 @@ contains
     from%n_owned = 0
     from%n_ghost = 0
   end subroutine take_storage
+
+  !> While journaling: row i's motion state is about to change; the first time since the
+  !> journal's start (or roll_back), it is kept as it is now.
+  subroutine bodies_touch(self, i)
+    class(bodies_t), intent(inout) :: self
+    integer, intent(in) :: i
+    integer :: m
+    integer(i8), parameter :: mold = 0_i8
+    if (.not. self%journal%active) return
+    m = self%journal%keep(i)
+    if (m == 0) return
+    associate (words => self%journal%words(:, m))
+      words(1:3) = transfer(self%x(:, i), mold, 3)
+      words(4:7) = transfer(self%q(:, i), mold, 4)
+      words(8:10) = transfer(self%v(:, i), mold, 3)
+      words(11:13) = transfer(self%w(:, i), mold, 3)
+      words(14:16) = transfer(self%a(:, i), mold, 3)
+      words(17:19) = transfer(self%alpha(:, i), mold, 3)
+      words(20) = merge(1_i8, 0_i8, self%asleep(i))
+    end associate
+  end subroutine bodies_touch
+
+  !> From now on the first change of each row's motion state is kept (touch), until
+  !> roll_back or stop_journal: the state roll_back returns to.
+  subroutine bodies_start_journal(self)
+    class(bodies_t), intent(inout) :: self
+    call self%journal%start(self%n_owned + self%n_ghost, journal_width)
+    self%journal_rows = [self%n_owned, self%n_ghost]
+  end subroutine bodies_start_journal
+
+  !> No more journal (what it kept is dropped).
+  subroutine bodies_stop_journal(self)
+    class(bodies_t), intent(inout) :: self
+    call self%journal%stop()
+  end subroutine bodies_stop_journal
+
+  !> Every row touched since start_journal back as it was then, bit for bit; the journal
+  !> goes on from there. O(rows touched). err: the rows held changed meanwhile (rows added
+  !> or removed under a journal: an internal error, nothing rolled back).
+  subroutine bodies_roll_back(self, err)
+    class(bodies_t), intent(inout) :: self
+    type(error_t), intent(inout) :: err
+    integer :: m, i
+    if (.not. self%journal%active .or. any([self%n_owned, self%n_ghost] /= self%journal_rows)) then
+      call err%set(ERR_INTERNAL, 'bodies: a roll back without its journal (rows held '//str(self%n_owned)//' + '// &
+                   str(self%n_ghost)//', at the start '//str(self%journal_rows(1))//' + '//str(self%journal_rows(2))//')')
+      return
+    end if
+    do m = 1, self%journal%n
+      i = self%journal%ids(m)
+      associate (words => self%journal%words(:, m))
+        self%x(:, i) = transfer(words(1:3), 1.0_dp, 3)
+        self%q(:, i) = transfer(words(4:7), 1.0_dp, 4)
+        self%v(:, i) = transfer(words(8:10), 1.0_dp, 3)
+        self%w(:, i) = transfer(words(11:13), 1.0_dp, 3)
+        self%a(:, i) = transfer(words(14:16), 1.0_dp, 3)
+        self%alpha(:, i) = transfer(words(17:19), 1.0_dp, 3)
+        self%asleep(i) = words(20) /= 0
+      end associate
+    end do
+    call self%journal%clear()
+  end subroutine bodies_roll_back
 
 end module body_state

@@ -93,8 +93,11 @@ module event_loop
     real(dp) :: band = 0.0_dp             !< contact band: target + tolerance + contact tolerance [m]
     logical :: use_pass = .false.         !< gravity or inelastic pairs: contact passes and islands
     type(integrator_config_t) :: config
-    type(pair_store_t) :: pairs
-    type(event_queue_t) :: pair_queue, body_queue, island_queue
+    !> (allocatable so that a cross-rank window's save copies the loop without them: they keep
+    !> undo journals instead, see copy_loop; loop_init allocates them)
+    type(pair_store_t), allocatable :: pairs
+    type(event_queue_t), allocatable :: pair_queue, body_queue
+    type(event_queue_t) :: island_queue
     type(cell_grid_t) :: cells
     type(island_table_t) :: islands
     integer(i8), allocatable :: version(:)       !< trajectory version per body
@@ -186,6 +189,7 @@ module event_loop
     procedure :: close_paths => loop_close_paths
     procedure :: queued_cross_time => loop_queued_cross_time
     procedure :: queued_halo_time => loop_queued_halo_time
+    procedure :: stop_journal => loop_stop_journal
   end type event_loop_t
 
 contains
@@ -264,6 +268,9 @@ contains
     if (allocated(self%first_change)) deallocate (self%first_change)
     allocate (self%first_change(n))
     self%first_change = far_future
+    if (.not. allocated(self%pairs)) allocate (self%pairs)
+    if (.not. allocated(self%pair_queue)) allocate (self%pair_queue)
+    if (.not. allocated(self%body_queue)) allocate (self%body_queue)
     call self%pairs%init(n, 8*n)
     if (allocated(self%pair_mark)) deallocate (self%pair_mark)
     allocate (self%pair_mark(0))
@@ -760,6 +767,7 @@ contains
     integer :: i
     do i = 1, bodies%n_owned + bodies%n_ghost
       if (bodies%fixed(i) .or. self%state_time(i) == t) cycle
+      call bodies%touch(i)
       call flight%evaluate(bodies, i, t, self%gravity)
       self%state_time(i) = t
       self%stats%output_evaluations = self%stats%output_evaluations + 1
@@ -865,7 +873,10 @@ contains
     type(free_flight_t), intent(inout) :: flight
     integer, intent(in) :: i
     real(dp), intent(in) :: t
-    if (bodies%fixed(i) .or. self%state_time(i) == t) return
+    if (bodies%fixed(i)) return
+    ! (every body an event reads is synced first: what an impulse changes is kept too)
+    call bodies%touch(i)
+    if (self%state_time(i) == t) return
     call flight%evaluate(bodies, i, t, self%gravity)
     self%state_time(i) = t
     self%stats%evaluations = self%stats%evaluations + 1
@@ -937,29 +948,65 @@ contains
     hi = hi + 1.0e-12_dp*(1.0_dp + abs(hi))
   end subroutine sweep_segment
 
-  !> dst = src for a cross-rank window's save (restoring: restored) and restore: the cell
-  !> grid's box table (keys, slots in use, lists: a 4-million-slot table for 50,000 spheres,
-  !> 110 MB of keys alone) is not copied (dst keeps its own), every other component is
-  !> (intrinsic assignment). The save starts the grid's journal of the bodies placed since;
-  !> a restore takes those bodies out of the live table before the copy and puts them back
-  !> at their restored box ranges after it (cell_grid restore_prepare, restore_finish), so
-  !> that the table is the save's again at the cost of the bodies that moved (it was made
-  !> again from every body's boxes before: 0.2 s at 50,000 spheres). src is left as it was
-  !> but for its journal, which a save starts afresh.
+  !> A cross-rank window's save (restoring false: dst, the saved copy, from src, the live
+  !> loop) and restore (restoring true: dst, the live loop, from src, the saved copy). What
+  !> is large and changes little in a window is not copied but kept by undo journals that the
+  !> save starts in the live loop and the restore rolls back: the pair store (slots,
+  !> certificates, lists: 43 MB for 50,000 spheres), the pair and body queues, and the cell
+  !> grid's box table (keys, slots in use, lists: a 4-million-slot table for 50,000 spheres;
+  !> its restore takes the bodies placed since the save out of the live table and puts them
+  !> back at their restored box ranges, cell_grid restore_prepare, restore_finish). Every
+  !> other component is copied (intrinsic assignment). The saved copy holds no pairs and no
+  !> queues: it is only ever restored from. Journals stop at the window's end (stop_journal).
   subroutine copy_loop(dst, src, restoring)
     type(event_loop_t), intent(inout) :: dst
     type(event_loop_t), intent(inout) :: src
     logical, intent(in) :: restoring
     type(cell_lists_t) :: src_lists, dst_lists
-    if (.not. restoring) call src%cells%start_journal()
-    if (restoring) call dst%cells%restore_prepare()
+    type(pair_store_t), allocatable :: kept_pairs
+    type(event_queue_t), allocatable :: kept_pair_queue, kept_body_queue
+    if (restoring) then
+      call dst%cells%restore_prepare()
+      call move_alloc(dst%pairs, kept_pairs)
+      call move_alloc(dst%pair_queue, kept_pair_queue)
+      call move_alloc(dst%body_queue, kept_body_queue)
+    else
+      call src%cells%start_journal()
+      call move_alloc(src%pairs, kept_pairs)
+      call move_alloc(src%pair_queue, kept_pair_queue)
+      call move_alloc(src%body_queue, kept_body_queue)
+    end if
     call src%cells%swap_table(src_lists)
     call dst%cells%swap_table(dst_lists)
     dst = src
     call src%cells%swap_table(src_lists)
     call dst%cells%swap_table(dst_lists)
-    if (restoring) call dst%cells%restore_finish()
+    if (restoring) then
+      call move_alloc(kept_pairs, dst%pairs)
+      call move_alloc(kept_pair_queue, dst%pair_queue)
+      call move_alloc(kept_body_queue, dst%body_queue)
+      call dst%cells%restore_finish()
+      call dst%pairs%roll_back()
+      call dst%pair_queue%roll_back()
+      call dst%body_queue%roll_back()
+    else
+      call move_alloc(kept_pairs, src%pairs)
+      call move_alloc(kept_pair_queue, src%pair_queue)
+      call move_alloc(kept_body_queue, src%body_queue)
+      call src%pairs%start_journal()
+      call src%pair_queue%start_journal()
+      call src%body_queue%start_journal()
+    end if
   end subroutine copy_loop
+
+  !> A cross-rank window ends: the undo journals its save started stop.
+  subroutine loop_stop_journal(self)
+    class(event_loop_t), intent(inout) :: self
+    call self%cells%stop_journal()
+    if (allocated(self%pairs)) call self%pairs%stop_journal()
+    if (allocated(self%pair_queue)) call self%pair_queue%stop_journal()
+    if (allocated(self%body_queue)) call self%body_queue%stop_journal()
+  end subroutine loop_stop_journal
 
   !> The earliest impact now in the queue of a pair with a moving ghost (far_future if none)
   !> [s]: a cross-rank window's speculative run ends there on every rank (the impact then
@@ -1273,6 +1320,7 @@ contains
     a = self%pairs%a(slot)
     b = self%pairs%b(slot)
     self%stats%certificates = self%stats%certificates + 1
+    call self%pairs%touch(slot)
     self%pairs%stamp(:, slot) = [self%version(a), self%version(b)]
     self%pairs%t_query(slot) = t
     if (bodies%fixed(a) .and. bodies%fixed(b)) then
@@ -1983,6 +2031,7 @@ contains
           ! gap at T: closest points where the bounding volumes cannot settle it
           reach = pass_closing(self, shapes, bodies, i, m, h)
           call far_bound(self, shapes, bodies, flight, i, m, self%band + reach, lb, dt)
+          call self%pairs%touch(q)
           self%pairs%t_query(q) = T
           if (lb > self%band + reach .or. (bodies%fixed(i) .and. bodies%fixed(m))) then
             self%pairs%far(q) = .true.
@@ -2075,6 +2124,7 @@ contains
     ! what the correction and the pass found goes back to the store
     do k = 1, n_table
       q = table(k)
+      call self%pairs%touch(q)
       self%pairs%in_pass(q) = stage%pair_in_pass(k)
       self%pairs%far(q) = stage%pair_far(k)
       self%pairs%gap(q) = stage%pair_gap0(k)

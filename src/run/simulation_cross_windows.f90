@@ -66,7 +66,6 @@ contains
 
   module procedure run_cross_windows
     real(dp) :: t_end, t_output, t_hard, t_cross, t_late, t_v, clock
-    type(bodies_t) :: saved_bodies
     type(collision_stage_t) :: saved_stage   ! (its counters and sleeping state only)
     type(event_loop_t) :: saved_loop
     integer, allocatable :: owner(:)
@@ -158,8 +157,8 @@ contains
           call restore_state()
           self%events%cross_mode = CROSS_RERUN
           self%events%rerun_to = t_v
-          call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err, &
-                                     exclusive=exclusive)
+          if (err%ok()) call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, &
+                                                   t_hard, err, exclusive=exclusive)
           if (par%any(err%failed())) then
             if (err%ok()) call err%set(ERR_INTERNAL, 'a repeated cross-rank window failed on another rank')
             return
@@ -197,7 +196,8 @@ contains
       end if
       self%events%cross_mode = CROSS_OFF
       call self%propagator%stop_journal()
-      call self%events%cells%stop_journal()
+      call self%bodies%stop_journal()
+      call self%events%stop_journal()
       ! the next window starts light (only the ghosts that changed come again, and the bodies
       ! that came near a neighbouring brick) unless a body left its brick somewhere
       need_full = par%any(self%events%halo_exit_seen)
@@ -236,7 +236,7 @@ contains
     if (err%ok()) call write_events(self, par, err)
   contains
     subroutine save_state()
-      saved_bodies = self%bodies
+      call self%bodies%start_journal()
       call self%propagator%start_journal()
       n_log = self%collisions%n_log
       ! Of the collision stage, what an elastic event changes and later events or the
@@ -251,7 +251,7 @@ contains
       call copy_loop(saved_loop, self%events, restoring=.false.)
     end subroutine save_state
     subroutine restore_state()
-      self%bodies = saved_bodies
+      call self%bodies%roll_back(err)
       call self%propagator%roll_back()
       self%collisions%stats = saved_stage%stats
       self%collisions%impulses = saved_stage%impulses

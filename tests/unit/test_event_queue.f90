@@ -3,6 +3,8 @@
 !> ids whatever the order of insertion, and the stale-certificate check. And the three
 !> renumbered as a migration renumbers a rank's bodies (remap_bodies, remap_handles: some
 !> leave, the others keep their order among new arrivals): everything kept is kept as it was.
+!> And the undo journals of the queue and the store (a cross-rank window's save): random
+!> changes, with growth, rolled back give the state of the journal's start bit for bit.
 program test_event_queue
   use kinds, only: dp, i8
   use random_stream, only: random_stream_t
@@ -18,6 +20,8 @@ program test_event_queue
   call store_lists_and_versions()
   call grid_against_brute_force()
   call renumbering()
+  call queue_journal()
+  call store_journal()
   call test_finish()
 
 contains
@@ -151,6 +155,169 @@ contains
     version(s%a(slot)) = version(s%a(slot)) + 1
     call check(.not. s%current(slot, version), 'store: a new trajectory version of a makes it stale')
   end subroutine store_lists_and_versions
+
+  !> The queue's undo journal: 120 handles queued, the journal started, 400 random sets,
+  !> removals and pops (handles up to 3x the capacity: the queue grows) rolled back; twice
+  !> (the journal goes on from the state rolled back to). Each time heap(1:n), every handle's
+  !> position and the queued times and tie-breaks are the start's, bit for bit; then the
+  !> queue still works (a pop order against the copy's). Negative control: without the roll
+  !> back, the state differs.
+  subroutine queue_journal()
+    type(event_queue_t) :: q, start
+    type(random_stream_t) :: rng
+    integer :: h, round
+    real(dp) :: t
+    logical :: same
+    call rng%init(5)
+    call q%init(64)
+    do h = 1, 120
+      call q%set(h, rng%uniform(), int(mod(h, 7), i8), int(h, i8))
+    end do
+    start = q
+    call q%start_journal()
+    do round = 1, 2
+      call scramble(q, rng)
+      call check(.not. same_queue(q, start), 'queue journal: the changes changed the queue (control)')
+      call q%roll_back()
+      call check(q%check_heap() .and. same_queue(q, start), 'queue journal: rolled back to the start, round '// &
+                 achar(48 + round))
+    end do
+    call q%stop_journal()
+    same = .true.
+    do while (.not. start%empty())
+      call start%pop(h, t)
+      call q%pop(round, t)
+      if (h /= round) same = .false.
+    end do
+    call check(same .and. q%empty(), 'queue journal: the rolled-back queue pops in the start''s order')
+  end subroutine queue_journal
+
+  !> 400 random sets, removals and pops of handles up to 360.
+  subroutine scramble(x, rng)
+    type(event_queue_t), intent(inout) :: x
+    type(random_stream_t), intent(inout) :: rng
+    real(dp) :: t
+    integer :: step, k
+    real(dp) :: u
+    do step = 1, 400
+      k = 1 + int(rng%uniform()*360)
+      u = rng%uniform()
+      if (u < 0.6_dp) then
+        call x%set(k, rng%uniform(), int(mod(k, 5), i8), int(k, i8))
+      else if (u < 0.85_dp) then
+        call x%remove(k)
+      else
+        call x%pop(k, t)
+      end if
+    end do
+  end subroutine scramble
+
+  logical function same_queue(x, y)
+    type(event_queue_t), intent(in) :: x, y
+    integer :: h
+    same_queue = x%n == y%n
+    if (.not. same_queue) return
+    same_queue = all(x%heap(1:x%n) == y%heap(1:y%n))
+    do h = 1, max(size(x%pos), size(y%pos))
+      if (pos_of(x, h) /= pos_of(y, h)) same_queue = .false.
+      if (pos_of(x, h) > 0 .and. pos_of(y, h) > 0) then
+        if (.not. (x%time(h) == y%time(h) .and. all(x%tie(:, h) == y%tie(:, h)))) same_queue = .false.
+      end if
+    end do
+  end function same_queue
+
+  integer function pos_of(x, h)
+    type(event_queue_t), intent(in) :: x
+    integer, intent(in) :: h
+    pos_of = 0
+    if (h <= size(x%pos)) pos_of = x%pos(h)
+  end function pos_of
+
+  !> The store's undo journal: 40 bodies, 300 random pairs, the journal started, then 600
+  !> random adds, removals and certificate writes (touch first; slots beyond the capacity:
+  !> the store grows) rolled back, twice. Each time every live slot's fields, the lists, the
+  !> free list up to its count and the counts are the start's, bit for bit. Negative
+  !> control: a write without touch is not undone.
+  subroutine store_journal()
+    integer, parameter :: n = 40
+    type(pair_store_t) :: s, start
+    type(random_stream_t) :: rng
+    integer(i8) :: gid(n)
+    integer :: k, round, slot
+    call rng%init(13)
+    gid = [(int(3*k + 1, i8), k=1, n)]
+    call s%init(n, 64)
+    call churn(s, rng, gid, 300, .true.)
+    start = s
+    call s%start_journal()
+    do round = 1, 2
+      call churn(s, rng, gid, 600, .true.)
+      call check(.not. same_store(s, start), 'store journal: the changes changed the store (control)')
+      call s%roll_back()
+      call check(s%check() .and. same_store(s, start), 'store journal: rolled back to the start, round '// &
+                 achar(48 + round))
+    end do
+    ! a certificate written without touch stays written (what touch is for)
+    slot = 0
+    do k = 1, s%n_slots
+      if (s%a(k) > 0) then
+        slot = k
+        exit
+      end if
+    end do
+    s%gap(slot) = -1.0_dp
+    call s%roll_back()
+    call check(.not. same_store(s, start), 'store journal: a write without touch is not undone (control)')
+    call s%stop_journal()
+  end subroutine store_journal
+
+  !> steps random adds and removals among n bodies of global ids gid, the certificate
+  !> fields of the pairs added or kept written (touch: touched first).
+  subroutine churn(x, rng, gid, steps, touch)
+    type(pair_store_t), intent(inout) :: x
+    type(random_stream_t), intent(inout) :: rng
+    integer(i8), intent(in) :: gid(:)
+    integer, intent(in) :: steps
+    logical, intent(in) :: touch
+    integer :: step, i, j, q
+    do step = 1, steps
+      i = 1 + int(rng%uniform()*size(gid))
+      j = 1 + int(rng%uniform()*size(gid))
+      if (i == j) cycle
+      q = x%find(i, j)
+      if (q == 0) then
+        q = x%add(i, j, gid(i), gid(j))
+      else if (rng%uniform() < 0.5_dp) then
+        call x%remove(q)
+        cycle
+      end if
+      if (touch) call x%touch(q)
+      x%t_due(q) = rng%uniform()
+      x%gap(q) = rng%uniform()
+      x%normal(:, q) = [rng%uniform(), rng%uniform(), rng%uniform()]
+      x%stamp(:, q) = x%stamp(:, q) + 1
+      x%action(q) = 1 + mod(step, 3)
+      x%far(q) = mod(step, 2) == 0
+    end do
+  end subroutine churn
+
+  logical function same_store(x, y)
+    type(pair_store_t), intent(in) :: x, y
+    integer :: k, m
+    same_store = x%n_slots == y%n_slots .and. x%n_live == y%n_live .and. x%n_free == y%n_free
+    if (.not. same_store) return
+    m = x%n_slots
+    same_store = all(x%a(1:m) == y%a(1:m)) .and. all(x%b(1:m) == y%b(1:m)) .and. &
+                 all(x%head == y%head(1:size(x%head))) .and. all(x%degree == y%degree(1:size(x%degree))) .and. &
+                 all(x%free_slots(1:x%n_free) == y%free_slots(1:y%n_free))
+    do k = 1, m
+      if (x%a(k) == 0) cycle
+      if (any(x%next(:, k) /= y%next(:, k)) .or. any(x%stamp(:, k) /= y%stamp(:, k)) .or. &
+          x%t_due(k) /= y%t_due(k) .or. x%gap(k) /= y%gap(k) .or. any(x%normal(:, k) /= y%normal(:, k)) .or. &
+          x%action(k) /= y%action(k) .or. (x%far(k) .neqv. y%far(k)) .or. x%t_query(k) /= y%t_query(k) .or. &
+          x%certified_until(k) /= y%certified_until(k) .or. (x%in_pass(k) .neqv. y%in_pass(k))) same_store = .false.
+    end do
+  end function same_store
 
   !> 500 boxes of random sizes (some large), moved at random: every query returns exactly
   !> the bodies whose regions overlap, in increasing index.
