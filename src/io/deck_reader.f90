@@ -28,7 +28,6 @@
 !> the effective deck.
 module deck_reader
   use kinds, only: i8
-  use constants, only: line_length
   use error_status, only: error_t, ERR_INPUT
   use string_utils, only: str, dirname
   use input_config, only: deck_t, body_spec_t
@@ -40,6 +39,7 @@ module deck_reader
   use output_group, only: read_output_group, write_output_group
   use parallel_group, only: read_parallel_group, write_parallel_group
   use body_group, only: read_body_group, write_body_group
+  use deck_sink, only: deck_sink_t
   implicit none
   private
   public :: read_deck, share_block, check_deck_bodies, write_effective_deck, effective_deck_lines, DECK_AUTO
@@ -204,27 +204,35 @@ contains
   !> fewest digits that read back exactly; paths are absolute.
   subroutine write_effective_deck(deck, unit)
     type(deck_t), intent(in) :: deck
-    integer, intent(in) :: unit
-    integer :: k
-
-    write (unit, '(a)') '! ricochet effective input: every variable, defaults filled in (docs/input.md)'
-    if (allocated(deck%path)) write (unit, '(a)') '! deck: '//deck%path
-    call write_settings(deck, unit)
-    if (.not. allocated(deck%bodies)) return
-    do k = 1, deck%n_bodies
-      call write_body_group(deck%bodies(k), k, unit)
-    end do
+    integer, intent(in) :: unit      !< an open formatted unit
+    type(deck_sink_t) :: out
+    call out%to_unit(unit)
+    call write_deck_to(deck, out)
   end subroutine write_effective_deck
 
-  !> The groups of the run's settings (all but the bodies) of the effective deck.
-  subroutine write_settings(deck, unit)
+  !> write_effective_deck's lines, to a unit or to memory.
+  subroutine write_deck_to(deck, out)
     type(deck_t), intent(in) :: deck
-    integer, intent(in) :: unit
-    call write_run_group(deck%run, unit)
-    call write_integrator_group(deck%integrator, unit)
-    call write_contact_group(deck%contact, unit)
-    call write_output_group(deck%output, unit)
-    call write_parallel_group(deck%parallel, unit)
+    type(deck_sink_t), intent(inout) :: out
+    integer :: k
+    call out%put('! ricochet effective input: every variable, defaults filled in (docs/input.md)')
+    if (allocated(deck%path)) call out%put('! deck: '//deck%path)
+    call write_settings(deck, out)
+    if (.not. allocated(deck%bodies)) return
+    do k = 1, deck%n_bodies
+      call write_body_group(deck%bodies(k), k, out)
+    end do
+  end subroutine write_deck_to
+
+  !> The groups of the run's settings (all but the bodies) of the effective deck.
+  subroutine write_settings(deck, out)
+    type(deck_t), intent(in) :: deck
+    type(deck_sink_t), intent(inout) :: out
+    call write_run_group(deck%run, out)
+    call write_integrator_group(deck%integrator, out)
+    call write_contact_group(deck%contact, out)
+    call write_output_group(deck%output, out)
+    call write_parallel_group(deck%parallel, out)
   end subroutine write_settings
 
   !> The effective deck as 'variable = value' lines under their group headers ('&run',
@@ -240,86 +248,24 @@ contains
     character(len=:), allocatable, intent(out) :: lines(:)
     integer, intent(in), optional :: groups(2)
     logical, intent(in), optional :: settings
-    character(len=:), allocatable :: text, grown_text
-    integer, allocatable :: ends(:), grown(:)
-    character(len=line_length) :: line
-    integer :: unit, status, n, k, used, width, length
-    open (newunit=unit, status='scratch', action='readwrite', form='formatted')
+    type(deck_sink_t) :: out
+    integer :: k
+    ! (in memory: comment lines and trailing comments dropped, '&body ! #3' as '&body #3')
+    call out%to_memory()
     if (present(groups)) then
       if (present(settings)) then
-        if (settings) call write_settings(deck, unit)
+        if (settings) call write_settings(deck, out)
       end if
       if (allocated(deck%bodies)) then
         do k = max(1, groups(1)), min(deck%n_bodies, groups(2))
-          call write_body_group(deck%bodies(k), k, unit)
+          call write_body_group(deck%bodies(k), k, out)
         end do
       end if
     else
-      call write_effective_deck(deck, unit)
+      call write_deck_to(deck, out)
     end if
-    rewind (unit)
-    ! the kept lines one after another in text, line k ending at ends(k)
-    allocate (character(len=65536) :: text)
-    allocate (ends(1024))
-    n = 0
-    used = 0
-    width = 1
-    do
-      read (unit, '(a)', iostat=status) line
-      if (status /= 0) exit
-      line = adjustl(line)
-      if (line(1:1) == '!' .or. len_trim(line) == 0) cycle
-      if (line(1:8) == '&body ! ') then
-        line = '&body '//trim(line(9:))
-      else
-        k = comment_start(line)
-        if (k > 0) line = line(1:k - 1)
-      end if
-      length = len_trim(line)
-      if (used + length > len(text)) then
-        allocate (character(len=2*(used + length)) :: grown_text)
-        grown_text(1:used) = text(1:used)
-        call move_alloc(grown_text, text)
-      end if
-      if (n == size(ends)) then
-        allocate (grown(2*n))
-        grown(1:n) = ends(1:n)
-        call move_alloc(grown, ends)
-      end if
-      text(used + 1:used + length) = line(1:length)
-      used = used + length
-      n = n + 1
-      ends(n) = used
-      width = max(width, length)
-    end do
-    close (unit)
-    allocate (character(len=width) :: lines(n))
-    do k = 1, n
-      if (k == 1) then
-        lines(k) = text(1:ends(1))
-      else
-        lines(k) = text(ends(k - 1) + 1:ends(k))
-      end if
-    end do
+    call out%take_lines(lines)
   end subroutine effective_deck_lines
 
-  !> Where a '!' comment starts outside quotes (0: none).
-  pure integer function comment_start(line) result(at)
-    character(len=*), intent(in) :: line
-    character :: quote
-    integer :: i
-    quote = ' '
-    at = 0
-    do i = 1, len_trim(line)
-      if (quote /= ' ') then
-        if (line(i:i) == quote) quote = ' '
-      else if (line(i:i) == '''' .or. line(i:i) == '"') then
-        quote = line(i:i)
-      else if (line(i:i) == '!') then
-        at = i
-        return
-      end if
-    end do
-  end function comment_start
 
 end module deck_reader

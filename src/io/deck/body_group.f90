@@ -15,6 +15,7 @@ module body_group
                              first_element_line, var_line, fail, fail_at, suggestion, real_text, &
                              put_real, put_integer, put_logical, put_text, put_note
   use deck_paths, only: resolve_path
+  use deck_sink, only: deck_sink_t
   implicit none
   private
   public :: read_body_group, write_body_group
@@ -473,89 +474,90 @@ contains
   !> The group in the effective deck: every variable, defaults filled in, auto values as -1;
   !> variables the shape does not use (a box's radius, the mass of a body given by
   !> density) as comments. index: the group's place among the deck's &body groups.
-  subroutine write_body_group(spec, index, unit)
+  subroutine write_body_group(spec, index, out)
     type(body_spec_t), intent(in) :: spec
-    integer, intent(in) :: index, unit
+    integer, intent(in) :: index
+    type(deck_sink_t), intent(inout) :: out
     character(len=:), allocatable :: shape, note
     associate (b => spec)
       shape = trim(b%shape)
-      write (unit, '(a)') '&body ! #'//str(index)
-      call put_text(unit, 'name', b%name)
-      call put_text(unit, 'shape', b%shape)
+      call out%put('&body ! #'//str(index))
+      call put_text(out, 'name', b%name)
+      call put_text(out, 'shape', b%shape)
       select case (shape)
       case ('sphere', 'cylinder')
-        call put_real(unit, 'radius', [b%radius], '[m]')
+        call put_real(out, 'radius', [b%radius], '[m]')
       case ('torus')
-        call put_real(unit, 'radius', [b%radius], '[m] major radius, of the tube''s centre circle')
+        call put_real(out, 'radius', [b%radius], '[m] major radius, of the tube''s centre circle')
       case default
-        call put_note(unit, 'radius: not used by shape '''//shape//'''')
+        call put_note(out, 'radius: not used by shape '''//shape//'''')
       end select
       select case (shape)
       case ('box')
-        call put_real(unit, 'size', b%size, '[m]')
+        call put_real(out, 'size', b%size, '[m]')
       case ('l_prism')
-        call put_real(unit, 'size', b%size, '[m] outer x, y, extrusion z')
+        call put_real(out, 'size', b%size, '[m] outer x, y, extrusion z')
       case ('cylinder')
-        call put_real(unit, 'size(3)', [b%size(3)], '[m] length')
+        call put_real(out, 'size(3)', [b%size(3)], '[m] length')
       case ('tetrahedron')
-        call put_real(unit, 'size(1)', [b%size(1)], '[m] edge length')
+        call put_real(out, 'size(1)', [b%size(1)], '[m] edge length')
       case default
-        call put_note(unit, 'size: not used by shape '''//shape//'''')
+        call put_note(out, 'size: not used by shape '''//shape//'''')
       end select
       if (shape == 'cylinder' .or. shape == 'torus') then
-        call put_integer(unit, 'segments', [b%segments], '')
+        call put_integer(out, 'segments', [b%segments], '')
       else
-        call put_note(unit, 'segments: not used by shape '''//shape//'''')
+        call put_note(out, 'segments: not used by shape '''//shape//'''')
       end if
       if (shape == 'torus') then
-        call put_real(unit, 'minor_radius', [b%minor_radius], '[m] tube radius')
-        call put_integer(unit, 'tube_segments', [b%tube_segments], '')
+        call put_real(out, 'minor_radius', [b%minor_radius], '[m] tube radius')
+        call put_integer(out, 'tube_segments', [b%tube_segments], '')
       else
-        call put_note(unit, 'minor_radius, tube_segments: not used by shape '''//shape//'''')
+        call put_note(out, 'minor_radius, tube_segments: not used by shape '''//shape//'''')
       end if
       if (shape == 'l_prism') then
-        call put_real(unit, 'thickness', [b%thickness], '[m] arm width')
+        call put_real(out, 'thickness', [b%thickness], '[m] arm width')
       else
-        call put_note(unit, 'thickness: not used by shape '''//shape//'''')
+        call put_note(out, 'thickness: not used by shape '''//shape//'''')
       end if
       if (shape == 'mesh') then
-        call put_text(unit, 'mesh_file', b%mesh_file)
-        call put_real(unit, 'scale', [b%scale], '')
+        call put_text(out, 'mesh_file', b%mesh_file)
+        call put_real(out, 'scale', [b%scale], '')
       else
-        call put_note(unit, 'mesh_file, scale: not used by shape '''//shape//'''')
+        call put_note(out, 'mesh_file, scale: not used by shape '''//shape//'''')
       end if
       if (b%density > 0.0_dp) then
-        call put_real(unit, 'density', [b%density], '[kg/m^3]')
-        call put_note(unit, 'mass: from density')
+        call put_real(out, 'density', [b%density], '[kg/m^3]')
+        call put_note(out, 'mass: from density')
       else if (b%mass > 0.0_dp) then
-        call put_note(unit, 'density: from mass')
-        call put_real(unit, 'mass', [b%mass], '[kg]')
+        call put_note(out, 'density: from mass')
+        call put_real(out, 'mass', [b%mass], '[kg]')
       else
-        call put_note(unit, 'density, mass: not used (fixed body)')
+        call put_note(out, 'density, mass: not used (fixed body)')
       end if
-      call put_real(unit, 'position', b%position, '[m]')
-      call put_real(unit, 'orientation', b%orientation, 'unit quaternion w, x, y, z')
-      call put_real(unit, 'velocity', b%velocity, '[m/s]')
-      call put_real(unit, 'angular_velocity', b%angular_velocity, '[rad/s] world frame')
-      call put_logical(unit, 'fixed', b%fixed)
-      call put_integer(unit, 'copies', b%copies, '')
-      call put_real(unit, 'spacing', b%spacing, '[m]')
-      call put_integer(unit, 'seed', [b%seed], '0: no jitter')
-      call put_real(unit, 'jitter_position', [b%jitter_position], '[m]')
-      call put_real(unit, 'jitter_angle', [b%jitter_angle], '[rad]')
-      call put_real(unit, 'jitter_velocity', [b%jitter_velocity], '[m/s]')
+      call put_real(out, 'position', b%position, '[m]')
+      call put_real(out, 'orientation', b%orientation, 'unit quaternion w, x, y, z')
+      call put_real(out, 'velocity', b%velocity, '[m/s]')
+      call put_real(out, 'angular_velocity', b%angular_velocity, '[rad/s] world frame')
+      call put_logical(out, 'fixed', b%fixed)
+      call put_integer(out, 'copies', b%copies, '')
+      call put_real(out, 'spacing', b%spacing, '[m]')
+      call put_integer(out, 'seed', [b%seed], '0: no jitter')
+      call put_real(out, 'jitter_position', [b%jitter_position], '[m]')
+      call put_real(out, 'jitter_angle', [b%jitter_angle], '[rad]')
+      call put_real(out, 'jitter_velocity', [b%jitter_velocity], '[m/s]')
       if (all(b%inertia == DECK_AUTO)) then
-        call put_real(unit, 'inertia', b%inertia, '[kg m^2] -1: auto, from the geometry')
+        call put_real(out, 'inertia', b%inertia, '[kg m^2] -1: auto, from the geometry')
       else
-        call put_real(unit, 'inertia', b%inertia, '[kg m^2] about the shape''s own axes')
+        call put_real(out, 'inertia', b%inertia, '[kg m^2] about the shape''s own axes')
       end if
       note = ''
       if (b%restitution == DECK_AUTO) note = '-1: the &contact value'
-      call put_real(unit, 'restitution', [b%restitution], note)
+      call put_real(out, 'restitution', [b%restitution], note)
       note = ''
       if (b%friction == DECK_AUTO) note = '-1: the &contact value'
-      call put_real(unit, 'friction', [b%friction], note)
-      write (unit, '(a)') '/'
+      call put_real(out, 'friction', [b%friction], note)
+      call out%put('/')
     end associate
   end subroutine write_body_group
 

@@ -10,6 +10,7 @@ module contact_group
   use namelist_source, only: DECK_AUTO, V_REAL, V_LOGICAL, V_CHARACTER, var_spec_t, source_t, group_t, group_input_t, &
                              open_group, prepare_group, translate_read_error, require_finite, fail, real_text, &
                              put_real, put_logical, put_text
+  use deck_sink, only: deck_sink_t
   implicit none
   private
   public :: read_contact_group, write_contact_group
@@ -104,27 +105,27 @@ contains
   end subroutine read_contact_group
 
   !> The group in the effective deck: every variable, defaults filled in, auto values as -1.
-  subroutine write_contact_group(config, unit)
+  subroutine write_contact_group(config, out)
     type(contact_config_t), intent(in) :: config
-    integer, intent(in) :: unit
+    type(deck_sink_t), intent(inout) :: out
     character(len=:), allocatable :: note
-    write (unit, '(a)') '&contact'
-    call put_real(unit, 'restitution', [config%restitution], '')
-    call put_real(unit, 'friction', [config%friction], '')
+    call out%put('&contact')
+    call put_real(out, 'restitution', [config%restitution], '')
+    call put_real(out, 'friction', [config%friction], '')
     note = '[m]'
     if (config%min_separation == DECK_AUTO) note = '[m] -1: auto, 1e-4 of the smallest body size'
-    call put_real(unit, 'min_separation', [config%min_separation], note)
+    call put_real(out, 'min_separation', [config%min_separation], note)
     note = '[m/s] below it impacts are inelastic'
     if (config%rest_speed == DECK_AUTO) note = '[m/s] -1: auto, max(2 |g| dt_max, sqrt(2 |g| min_separation))'
-    call put_real(unit, 'rest_speed', [config%rest_speed], note)
+    call put_real(out, 'rest_speed', [config%rest_speed], note)
     note = '[m/s] 0: never sleep'
     if (config%sleep_speed == DECK_AUTO) note = '[m/s] -1: auto, rest_speed/100'
-    call put_real(unit, 'sleep_speed', [config%sleep_speed], note)
-    call put_real(unit, 'sleep_time', [config%sleep_time], '[s]')
-    call put_text(unit, 'restitution_rule', config%restitution_rule)
-    call put_text(unit, 'friction_rule', config%friction_rule)
-    call put_logical(unit, 'turning_term', config%turning_term)
-    write (unit, '(a)') '/'
+    call put_real(out, 'sleep_speed', [config%sleep_speed], note)
+    call put_real(out, 'sleep_time', [config%sleep_time], '[s]')
+    call put_text(out, 'restitution_rule', config%restitution_rule)
+    call put_text(out, 'friction_rule', config%friction_rule)
+    call put_logical(out, 'turning_term', config%turning_term)
+    call out%put('/')
   end subroutine write_contact_group
 
 end module contact_group

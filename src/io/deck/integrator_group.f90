@@ -10,6 +10,7 @@ module integrator_group
   use namelist_source, only: V_REAL, V_INTEGER, V_LOGICAL, V_CHARACTER, var_spec_t, source_t, group_t, group_input_t, &
                              open_group, prepare_group, translate_read_error, require_finite, fail, real_text, &
                              put_real, put_integer, put_text, put_logical
+  use deck_sink, only: deck_sink_t
   implicit none
   private
   public :: read_integrator_group, write_integrator_group
@@ -96,18 +97,18 @@ contains
   end subroutine read_integrator_group
 
   !> The group in the effective deck: every variable, defaults filled in.
-  subroutine write_integrator_group(config, unit)
+  subroutine write_integrator_group(config, out)
     type(integrator_config_t), intent(in) :: config
-    integer, intent(in) :: unit
-    write (unit, '(a)') '&integrator'
-    call put_real(unit, 'newmark_beta', [config%newmark_beta], '')
-    call put_real(unit, 'newmark_gamma', [config%newmark_gamma], '')
-    call put_real(unit, 'rotation_tolerance', [config%rotation_tolerance], '[-] relative')
-    call put_integer(unit, 'rotation_max_iterations', [config%rotation_max_iterations], '')
-    call put_text(unit, 'rotation', config%rotation)
-    call put_text(unit, 'events', config%events)
-    call put_logical(unit, 'audit_certificates', config%audit_certificates)
-    write (unit, '(a)') '/'
+    type(deck_sink_t), intent(inout) :: out
+    call out%put('&integrator')
+    call put_real(out, 'newmark_beta', [config%newmark_beta], '')
+    call put_real(out, 'newmark_gamma', [config%newmark_gamma], '')
+    call put_real(out, 'rotation_tolerance', [config%rotation_tolerance], '[-] relative')
+    call put_integer(out, 'rotation_max_iterations', [config%rotation_max_iterations], '')
+    call put_text(out, 'rotation', config%rotation)
+    call put_text(out, 'events', config%events)
+    call put_logical(out, 'audit_certificates', config%audit_certificates)
+    call out%put('/')
   end subroutine write_integrator_group
 
 end module integrator_group

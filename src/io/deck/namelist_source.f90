@@ -14,6 +14,7 @@ module namelist_source
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INPUT, ERR_IO
   use string_utils, only: str, lower, name_index
+  use deck_sink, only: deck_sink_t
   implicit none
   private
   public :: DECK_AUTO, V_REAL, V_INTEGER, V_LOGICAL, V_CHARACTER, T_WORD, T_STRING, T_EQUALS
@@ -1350,20 +1351,20 @@ contains
   ! Lines of the effective deck
   ! ---------------------------------------------------------------------------------------
 
-  subroutine put_line(unit, name, values, note)
-    integer, intent(in) :: unit
+  subroutine put_line(out, name, values, note)
+    type(deck_sink_t), intent(inout) :: out
     character(len=*), intent(in) :: name, values, note
     character(len=24) :: padded
     padded = name
     if (len(note) > 0) then
-      write (unit, '(a)') '  '//padded//' = '//values//'  ! '//note
+      call out%put('  '//padded//' = '//values//'  ! '//note)
     else
-      write (unit, '(a)') '  '//padded//' = '//values
+      call out%put('  '//padded//' = '//values)
     end if
   end subroutine put_line
 
-  subroutine put_real(unit, name, values, note)
-    integer, intent(in) :: unit
+  subroutine put_real(out, name, values, note)
+    type(deck_sink_t), intent(inout) :: out
     character(len=*), intent(in) :: name, note
     real(dp), intent(in) :: values(:)
     character(len=:), allocatable :: text
@@ -1372,11 +1373,11 @@ contains
     do i = 2, size(values)
       text = text//', '//real_text(values(i))
     end do
-    call put_line(unit, name, text, note)
+    call put_line(out, name, text, note)
   end subroutine put_real
 
-  subroutine put_integer(unit, name, values, note)
-    integer, intent(in) :: unit
+  subroutine put_integer(out, name, values, note)
+    type(deck_sink_t), intent(inout) :: out
     character(len=*), intent(in) :: name, note
     integer, intent(in) :: values(:)
     character(len=:), allocatable :: text
@@ -1385,19 +1386,19 @@ contains
     do i = 2, size(values)
       text = text//', '//str(values(i))
     end do
-    call put_line(unit, name, text, note)
+    call put_line(out, name, text, note)
   end subroutine put_integer
 
-  subroutine put_logical(unit, name, value)
-    integer, intent(in) :: unit
+  subroutine put_logical(out, name, value)
+    type(deck_sink_t), intent(inout) :: out
     character(len=*), intent(in) :: name
     logical, intent(in) :: value
-    call put_line(unit, name, str(value), '')
+    call put_line(out, name, str(value), '')
   end subroutine put_logical
 
   !> Quoted with ', a ' inside doubled.
-  subroutine put_text(unit, name, value)
-    integer, intent(in) :: unit
+  subroutine put_text(out, name, value)
+    type(deck_sink_t), intent(inout) :: out
     character(len=*), intent(in) :: name, value
     character(len=:), allocatable :: quoted
     integer :: c
@@ -1406,13 +1407,13 @@ contains
       quoted = quoted//value(c:c)
       if (value(c:c) == '''') quoted = quoted//''''
     end do
-    call put_line(unit, name, quoted//'''', '')
+    call put_line(out, name, quoted//'''', '')
   end subroutine put_text
 
-  subroutine put_note(unit, note)
-    integer, intent(in) :: unit
+  subroutine put_note(out, note)
+    type(deck_sink_t), intent(inout) :: out
     character(len=*), intent(in) :: note
-    write (unit, '(a)') '  ! '//note
+    call out%put('  ! '//note)
   end subroutine put_note
 
 end module namelist_source

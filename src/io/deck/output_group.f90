@@ -10,6 +10,7 @@ module output_group
                              group_input_t, open_group, prepare_group, translate_read_error, require_finite, fail, &
                              real_text, put_real, put_logical, put_text
   use deck_paths, only: resolve_path
+  use deck_sink, only: deck_sink_t
   implicit none
   private
   public :: read_output_group, write_output_group
@@ -96,24 +97,24 @@ contains
   end subroutine read_output_group
 
   !> The group in the effective deck: every variable, defaults filled in, auto values as -1.
-  subroutine write_output_group(config, unit)
+  subroutine write_output_group(config, out)
     type(output_config_t), intent(in) :: config
-    integer, intent(in) :: unit
+    type(deck_sink_t), intent(inout) :: out
     character(len=:), allocatable :: note
-    write (unit, '(a)') '&output'
-    call put_text(unit, 'dir', config%dir)
+    call out%put('&output')
+    call put_text(out, 'dir', config%dir)
     note = '[s]'
     if (config%interval == DECK_AUTO) note = '[s] -1: auto, t_end/100'
-    call put_real(unit, 'interval', [config%interval], note)
-    call put_real(unit, 'checkpoint_interval', [config%checkpoint_interval], '[s] 0: only at the end')
-    call put_real(unit, 'progress_interval', [config%progress_interval], '[s of wall time]')
+    call put_real(out, 'interval', [config%interval], note)
+    call put_real(out, 'checkpoint_interval', [config%checkpoint_interval], '[s] 0: only at the end')
+    call put_real(out, 'progress_interval', [config%progress_interval], '[s of wall time]')
     note = '[s]'
     if (config%history_interval == DECK_AUTO) note = '[s] -1: auto, interval/10'
-    call put_real(unit, 'history_interval', [config%history_interval], note)
-    call put_logical(unit, 'write_frames', config%write_frames)
-    call put_logical(unit, 'check_overlaps', config%check_overlaps)
-    call put_logical(unit, 'event_log', config%event_log)
-    write (unit, '(a)') '/'
+    call put_real(out, 'history_interval', [config%history_interval], note)
+    call put_logical(out, 'write_frames', config%write_frames)
+    call put_logical(out, 'check_overlaps', config%check_overlaps)
+    call put_logical(out, 'event_log', config%event_log)
+    call out%put('/')
   end subroutine write_output_group
 
 end module output_group

@@ -10,6 +10,7 @@ module parallel_group
   use namelist_source, only: DECK_AUTO, V_INTEGER, V_REAL, var_spec_t, source_t, group_t, group_input_t, open_group, &
                              prepare_group, translate_read_error, fail, put_integer, put_real, require_finite, &
                              real_text
+  use deck_sink, only: deck_sink_t
   implicit none
   private
   public :: read_parallel_group, write_parallel_group
@@ -54,16 +55,16 @@ contains
   end subroutine read_parallel_group
 
   !> The group in the effective deck: every variable, defaults filled in.
-  subroutine write_parallel_group(config, unit)
+  subroutine write_parallel_group(config, out)
     type(parallel_config_t), intent(in) :: config
-    integer, intent(in) :: unit
+    type(deck_sink_t), intent(inout) :: out
     character(len=:), allocatable :: note
-    write (unit, '(a)') '&parallel'
-    call put_integer(unit, 'dims', config%dims, 'ranks along x, y, z; 0: chosen')
+    call out%put('&parallel')
+    call put_integer(out, 'dims', config%dims, 'ranks along x, y, z; 0: chosen')
     note = '[m] how far a body may leave its brick before it migrates'
     if (config%skin == DECK_AUTO) note = '[m] -1: auto, one box of the collision grid'
-    call put_real(unit, 'skin', [config%skin], note)
-    write (unit, '(a)') '/'
+    call put_real(out, 'skin', [config%skin], note)
+    call out%put('/')
   end subroutine write_parallel_group
 
 end module parallel_group

@@ -8,6 +8,7 @@ module run_group
   use namelist_source, only: V_REAL, V_CHARACTER, var_spec_t, source_t, group_t, group_input_t, open_group, &
                              prepare_group, translate_read_error, require_finite, given, fail, real_text, &
                              put_real, put_text
+  use deck_sink, only: deck_sink_t
   implicit none
   private
   public :: read_run_group, write_run_group
@@ -76,16 +77,16 @@ contains
   end subroutine read_run_group
 
   !> The group in the effective deck: every variable, defaults filled in.
-  subroutine write_run_group(config, unit)
+  subroutine write_run_group(config, out)
     type(run_config_t), intent(in) :: config
-    integer, intent(in) :: unit
-    write (unit, '(a)') '&run'
-    call put_text(unit, 'title', config%title)
-    call put_real(unit, 't_end', [config%t_end], '[s]')
-    call put_real(unit, 'dt_max', [config%dt_max], '[s]')
-    call put_real(unit, 'gravity', config%gravity, '[m/s^2]')
-    call put_real(unit, 'wall_limit', [config%wall_limit], '[s] 0: no limit')
-    write (unit, '(a)') '/'
+    type(deck_sink_t), intent(inout) :: out
+    call out%put('&run')
+    call put_text(out, 'title', config%title)
+    call put_real(out, 't_end', [config%t_end], '[s]')
+    call put_real(out, 'dt_max', [config%dt_max], '[s]')
+    call put_real(out, 'gravity', config%gravity, '[m/s^2]')
+    call put_real(out, 'wall_limit', [config%wall_limit], '[s] 0: no limit')
+    call out%put('/')
   end subroutine write_run_group
 
 end module run_group
