@@ -162,8 +162,8 @@ contains
     character(len=*), intent(in) :: path
     type(deck_change_t), intent(out) :: changes
     type(error_t), intent(inout) :: err
-    character(len=:), allocatable :: old_keys(:), old_values(:), new_keys(:), new_values(:), &
-                                     old_shown(:), new_shown(:)
+    character(len=:), allocatable :: old_keys(:), old_values(:), new_keys(:), new_values(:)
+    integer, allocatable :: old_at(:), new_at(:)
     character(len=:), allocatable :: refused
     character(len=line_length), allocatable :: notes(:)
     integer :: i, j, k, n_notes, n_refused
@@ -171,8 +171,8 @@ contains
     ! line_length, the notes grow as they come, and an entry is looked for first where the
     ! last one found leads, both decks being written in the same order: linear, where a
     ! search of every entry among all was quadratic, hours for 27,000 bodies)
-    call split_entries(old, old_keys, old_values, old_shown)
-    call split_entries(new, new_keys, new_values, new_shown)
+    call split_entries(old, old_keys, old_values, old_at)
+    call split_entries(new, new_keys, new_values, new_at)
     allocate (notes(16))
     n_notes = 0
     n_refused = 0
@@ -184,7 +184,7 @@ contains
       if (j == 0) then
         call grow_notes()
         n_notes = n_notes + 1
-        notes(n_notes) = trim(new_shown(i))//' = '//trim(new_values(i))// &
+        notes(n_notes) = shown_entry(new, new_at(i))//' = '//trim(new_values(i))// &
                          ' is not recorded in the checkpoint (written by an older ricochet): taken from the deck'
         changes%n_allowed = changes%n_allowed + 1
         cycle
@@ -195,17 +195,17 @@ contains
         changes%n_allowed = changes%n_allowed + 1
         call grow_notes()
         n_notes = n_notes + 1
-        notes(n_notes) = trim(new_shown(i))//' changed from '//trim(old_values(j))//' to '// &
+        notes(n_notes) = shown_entry(new, new_at(i))//' changed from '//trim(old_values(j))//' to '// &
                          trim(new_values(i))//' (allowed)'
       case (class_ignored)
         changes%n_ignored = changes%n_ignored + 1
         call grow_notes()
         n_notes = n_notes + 1
-        notes(n_notes) = trim(new_shown(i))//' changed from '//trim(old_values(j))//' to '// &
+        notes(n_notes) = shown_entry(new, new_at(i))//' changed from '//trim(old_values(j))//' to '// &
                          trim(new_values(i))//': ignored, the state of the bodies comes from the checkpoint'
       case default
         n_refused = n_refused + 1
-        refused = refused//'; '//trim(new_shown(i))//' '//trim(old_values(j))//' -> '//trim(new_values(i))
+        refused = refused//'; '//shown_entry(new, new_at(i))//' '//trim(old_values(j))//' -> '//trim(new_values(i))
       end select
     end do
     i = 0
@@ -217,7 +217,7 @@ contains
       end if
       if (change_class(old_keys(j)) == class_refused) then
         n_refused = n_refused + 1
-        refused = refused//'; '//trim(old_shown(j))//' '//trim(old_values(j))//' -> (not in this deck)'
+        refused = refused//'; '//shown_entry(old, old_at(j))//' '//trim(old_values(j))//' -> (not in this deck)'
       end if
     end do
     allocate (character(len=line_length) :: changes%notices(n_notes))
@@ -283,49 +283,82 @@ contains
   end function change_class
 
   !> 'group|variable' keys and their values from effective deck lines ('&body #2' headers),
-  !> and how each is shown to the user ("&body #2 'crate' size").
-  subroutine split_entries(lines, keys, values, shown)
+  !> and the line each is on (shown_entry names it for a message: "&body #2 'crate' size").
+  subroutine split_entries(lines, keys, values, at)
     character(len=*), intent(in) :: lines(:)
-    character(len=:), allocatable, intent(out) :: keys(:), values(:), shown(:)
-    character(len=line_length) :: group, label
-    integer :: i, n, eq, k, width
-    ! (a key is a group header, '|' and a variable; shown, a header, a name and a variable)
-    width = len(lines)
-    allocate (character(len=2*width + 1) :: keys(size(lines)))
-    allocate (character(len=width) :: values(size(lines)))
-    allocate (character(len=3*width + 2) :: shown(size(lines)))
-    n = 0
-    group = ''
-    label = ''
-    do i = 1, size(lines)
-      if (lines(i)(1:1) == '&') then
-        group = lines(i)
-        label = group
-        ! a body group is shown with its name (the line "name = '...'" inside it)
-        do k = i + 1, size(lines)
-          if (lines(k)(1:1) == '/') exit
-          eq = index(lines(k), '=')
-          if (eq > 0) then
-            if (adjustl(lines(k)(1:eq - 1)) == 'name') then
-              label = trim(group)//' '//trim(adjustl(lines(k)(eq + 1:)))
-              exit
-            end if
-          end if
-        end do
-        cycle
+    character(len=:), allocatable, intent(out) :: keys(:), values(:)
+    integer, allocatable, intent(out) :: at(:)
+    integer :: i, n, eq, header, key_width, value_width, pass
+    ! (a key is a group header, '|' and a variable. Two passes: the first finds how many
+    ! entries and how wide, so that 2 million entries of a 100,000-body deck take their own
+    ! width, not the lines' or line_length; a header is kept as the line it is on.)
+    key_width = 1
+    value_width = 1
+    do pass = 1, 2
+      if (pass == 2) then
+        allocate (character(len=key_width) :: keys(n))
+        allocate (character(len=value_width) :: values(n))
+        allocate (at(n))
       end if
-      if (lines(i)(1:1) == '/') cycle
-      eq = index(lines(i), '=')
-      if (eq == 0) cycle
-      n = n + 1
-      keys(n) = trim(group)//'|'//trim(adjustl(lines(i)(1:eq - 1)))
-      values(n) = adjustl(lines(i)(eq + 1:))
-      shown(n) = trim(label)//' '//trim(adjustl(lines(i)(1:eq - 1)))
+      n = 0
+      header = 0
+      do i = 1, size(lines)
+        if (lines(i)(1:1) == '&') then
+          header = i
+          cycle
+        end if
+        if (lines(i)(1:1) == '/') cycle
+        eq = index(lines(i), '=')
+        if (eq == 0) cycle
+        n = n + 1
+        if (pass == 1) then
+          key_width = max(key_width, len_trim(lines(max(header, 1))) + 1 + len_trim(adjustl(lines(i)(1:eq - 1))))
+          value_width = max(value_width, len_trim(adjustl(lines(i)(eq + 1:))))
+        else
+          if (header > 0) then
+            keys(n) = lines(header)(1:len_trim(lines(header)))//'|'//trim(adjustl(lines(i)(1:eq - 1)))
+          else
+            keys(n) = '|'//trim(adjustl(lines(i)(1:eq - 1)))
+          end if
+          values(n) = adjustl(lines(i)(eq + 1:))
+          at(n) = i
+        end if
+      end do
     end do
-    keys = keys(1:n)
-    values = values(1:n)
-    shown = shown(1:n)
   end subroutine split_entries
+
+  !> How the entry on lines(at) is named in a message: its group header, a body group's
+  !> name (the line "name = '...'" inside it) and the variable.
+  function shown_entry(lines, at) result(shown)
+    character(len=*), intent(in) :: lines(:)
+    integer, intent(in) :: at
+    character(len=:), allocatable :: shown
+    character(len=:), allocatable :: label
+    integer :: header, k, eq
+    header = 0
+    do k = at - 1, 1, -1
+      if (lines(k)(1:1) == '&') then
+        header = k
+        exit
+      end if
+    end do
+    label = ''
+    if (header > 0) then
+      label = trim(lines(header))
+      do k = header + 1, size(lines)
+        if (lines(k)(1:1) == '/') exit
+        eq = index(lines(k), '=')
+        if (eq > 0) then
+          if (adjustl(lines(k)(1:eq - 1)) == 'name') then
+            label = label//' '//trim(adjustl(lines(k)(eq + 1:)))
+            exit
+          end if
+        end if
+      end do
+    end if
+    eq = index(lines(at), '=')
+    shown = label//' '//trim(adjustl(lines(at)(1:eq - 1)))
+  end function shown_entry
 
   pure logical function differs(a, b)
     real(dp), intent(in) :: a, b

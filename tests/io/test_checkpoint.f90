@@ -67,6 +67,23 @@ program test_checkpoint
   call check(same([meta_back%checksum], [meta%checksum]), 'checksum bitwise')
   call check(same(meta_back%counters, meta%counters), 'counters bitwise')
   call check(all(meta_back%counter_names == meta%counter_names), 'counter names')
+  call check(size(meta_back%deck_lines) == size(meta%deck_lines), 'effective deck: as many lines')
+  if (size(meta_back%deck_lines) == size(meta%deck_lines)) &
+    call check(all(meta_back%deck_lines == meta%deck_lines) .and. len(meta_back%deck_lines) == 16, &
+               'effective deck: the same lines, as wide as the longest')
+
+  ! ---- version 2 (the effective deck as fixed-length strings) is still read: the same file
+  ! in that layout (tests/data/make_checkpoint_fixtures.py)
+  call read_checkpoint(par, test_data_path('checkpoint_version_2.h5'), meta_back, back, err)
+  call check(err%ok(), 'read version 2: '//text(err))
+  if (err%ok()) then
+    call check(meta_back%version == 2 .and. back%n_owned == 4 .and. same(flat(back%x), flat(bodies%x)), &
+               'version 2: its bodies')
+    call check(size(meta_back%deck_lines) == size(meta%deck_lines), 'version 2: as many deck lines')
+    if (size(meta_back%deck_lines) == size(meta%deck_lines)) &
+      call check(all(meta_back%deck_lines == meta%deck_lines), 'version 2: the same deck lines')
+  end if
+  call err%clear()
 
   ! ---- a second checkpoint under the same name replaces the first
   meta%time = 2.0_dp
@@ -104,7 +121,7 @@ program test_checkpoint
   call expect_failure(test_data_path('foreign.h5'), [character(len=40) :: 'foreign.h5', &
                       'not a ricochet checkpoint'], 'HDF5 file without the magic')
   call expect_failure(test_data_path('checkpoint_version_999.h5'), [character(len=40) :: &
-                      'checkpoint_version_999.h5', 'version 999', 'reads version 2'], 'future version')
+                      'checkpoint_version_999.h5', 'version 999', 'reads versions 2 to 3'], 'future version')
   call expect_failure(test_data_path('checkpoint_empty.h5'), [character(len=40) :: 'checkpoint_empty.h5', &
                       'is damaged', "'time' is missing"], 'header only')
   ! A checkpoint that cannot be written (its folder would be under a file) names the path.
@@ -210,6 +227,9 @@ contains
     m%counters = [42.0_dp, 1.0_dp/3.0_dp]
     allocate (m%counter_names(2))
     m%counter_names = [character(len=name_length) :: 'contacts', 'events']
+    ! lines of unequal length, trailing blanks (dropped), an empty line and a byte past ASCII
+    m%deck_lines = [character(len=40) :: '&run', "  title = 'caf"//achar(233)//"'", '', &
+                    '  t_end = 1.5     ', '/', '&body #1']
   end subroutine make_meta
 
   !> Copies the first half of a file: what a crash in the middle of a copy leaves.

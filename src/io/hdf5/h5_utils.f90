@@ -25,7 +25,7 @@ module h5_utils
                   h5acreate_f, h5aopen_f, h5aclose_f, h5awrite_f, h5aread_f, h5aexists_f, h5aget_space_f, &
                   h5aget_type_f, h5tcopy_f, h5tclose_f, h5tset_size_f, h5tget_size_f, h5tset_strpad_f, &
                   h5tget_class_f, H5T_STR_NULLPAD_F, H5T_STRING_F, H5T_C_S1, H5T_NATIVE_DOUBLE, &
-                  H5T_NATIVE_INTEGER, H5T_IEEE_F64LE, H5T_STD_I64LE, H5T_STD_I32LE, h5kind_to_type, &
+                  H5T_NATIVE_INTEGER, H5T_IEEE_F64LE, H5T_STD_I64LE, H5T_STD_I32LE, H5T_STD_U8LE, h5kind_to_type, &
                   H5_INTEGER_KIND, H5P_DATASET_CREATE_F, H5P_GROUP_CREATE_F, h5pset_obj_track_times_f, &
                   h5pset_alloc_time_f, H5D_ALLOC_TIME_EARLY_F
   use mpi_f08, only: MPI_INFO_NULL   ! a constant handle for HDF5's integer-handle API, not an MPI call
@@ -37,7 +37,8 @@ module h5_utils
   public :: hid_t, h5u_start, h5u_create_parallel, h5u_open_parallel, h5u_open_serial, &
             h5u_close_file, h5u_create_group, h5u_open_group, h5u_close_group, h5u_has_attr, &
             h5u_has_link, h5u_write, h5u_write_strings, h5u_write_attr, h5u_read_attr, &
-            h5u_read_real_2d, h5u_read_real_1d, h5u_read_int8_1d, h5u_read_int_1d, h5u_read_strings
+            h5u_read_real_2d, h5u_read_real_1d, h5u_read_int8_1d, h5u_read_int_1d, h5u_read_strings, &
+            h5u_write_bytes, h5u_read_bytes
 
   integer(hid_t), parameter :: no_id = -1
 
@@ -383,6 +384,26 @@ contains
     end if
   end subroutine write_int_1d
 
+  !> Text as bytes (unsigned 8-bit, any byte kept as it is): this rank's n_local bytes of
+  !> text written at bytes offset+1.. of n_total. For long text of lines of unequal length
+  !> (the effective deck) with their ends beside it: a fixed-length string dataset pads every
+  !> line to the longest.
+  subroutine h5u_write_bytes(loc, name, text, n_total, offset, err)
+    integer(hid_t), intent(in) :: loc
+    character(len=*), intent(in) :: name
+    character(len=*), intent(in) :: text
+    integer(i8), intent(in) :: n_total, offset
+    type(error_t), intent(inout) :: err
+    character(kind=c_char), allocatable, target :: buffer(:)
+    integer :: k
+    if (err%failed()) return
+    allocate (buffer(max(1, len(text))))
+    do k = 1, len(text)
+      buffer(k) = text(k:k)
+    end do
+    call write_block(loc, name, H5T_STD_U8LE, H5T_STD_U8LE, 0, n_total, offset, len(text), c_loc(buffer), err)
+  end subroutine h5u_write_bytes
+
   !> Fixed-length, null-padded strings (trailing blanks of the Fortran strings dropped),
   !> one per row: what h5py and other C readers expect.
   subroutine h5u_write_strings(loc, name, strings, n_total, offset, err)
@@ -565,6 +586,33 @@ contains
     end if
     call close_dataset(dset)
   end subroutine h5u_read_int_1d
+
+  !> Reads a whole byte dataset (h5u_write_bytes) as one string.
+  subroutine h5u_read_bytes(loc, name, text, err)
+    integer(hid_t), intent(in) :: loc
+    character(len=*), intent(in) :: name
+    character(len=:), allocatable, intent(out) :: text
+    type(error_t), intent(inout) :: err
+    character(kind=c_char), allocatable, target :: buffer(:)
+    integer(hid_t) :: dset
+    integer(hsize_t) :: dims(2)
+    integer :: rank, k
+    call open_dataset(loc, name, dset, dims, rank, err)
+    if (err%failed()) return
+    if (rank /= 1) then
+      call err%set(ERR_IO, "dataset '"//name//"' is not one-dimensional")
+    else if (dims(1) > int(huge(1), hsize_t)) then
+      call err%set(ERR_IO, "dataset '"//name//"' has more than 2^31 bytes")
+    else
+      allocate (buffer(max(1_hsize_t, dims(1))))
+      if (dims(1) > 0) call read_whole(dset, name, H5T_STD_U8LE, c_loc(buffer), err)
+      allocate (character(len=int(dims(1))) :: text)
+      do k = 1, int(dims(1))
+        text(k:k) = buffer(k)
+      end do
+    end if
+    call close_dataset(dset)
+  end subroutine h5u_read_bytes
 
   !> Reads a string dataset; strings longer than len(strings) are cut.
   subroutine h5u_read_strings(loc, name, strings, err)
