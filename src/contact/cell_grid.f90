@@ -660,10 +660,10 @@ contains
     end do
   end subroutine delete
 
-  !> A table at least four times the boxes still holding bodies (empty boxes are dropped,
+  !> A table at least three times the boxes still holding bodies (empty boxes are dropped,
   !> so a body flying far does not leave a trail of boxes behind; their rooms in the pool
   !> are given up). At the size it has (most rehashes: bodies moving on leave empty boxes
-  !> behind) it is emptied and filled again in place: a fresh table of four million slots
+  !> behind) it is emptied and filled again in place: a fresh table of millions of slots
   !> (100,000 spheres on two ranks) costs its page faults every time. Only the slots move:
   !> the lists stay where they are in the pool.
   subroutine rehash(self)
@@ -677,8 +677,10 @@ contains
         if (self%cell_n(s) > 0) occupied = occupied + 1
       end if
     end do
+    ! (at least 3 slots per occupied box: a third full at most after the rehash, half at the
+    ! next; 4 made a 100,000-sphere rank's table 4M slots, 160 MB of fresh pages, where 2M do)
     new_size = self%table_size
-    do while (new_size < 4*(occupied + 1))
+    do while (new_size < 3*(occupied + 1))
       new_size = 2*new_size
     end do
     ! the boxes holding bodies set aside (their lists stay where they are in the pool), the

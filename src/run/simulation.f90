@@ -90,6 +90,9 @@ module simulation
     !> Bodies owned by the brick of their centre (docs/architecture.md, "Domain
     !> decomposition"): several ranks and no interaction possible before t_end.
     logical :: decomposed = .false.
+    !> Every owned body is in the brick of its centre, as take_brick left it, and no ghost is
+    !> held: the first cross-rank window's start has nothing to migrate.
+    logical :: in_own_bricks = .false.
     type(domain_t) :: dom
     real(dp) :: window_end = huge(1.0_dp)     !< the next migration [s]
     real(dp) :: previous_stop = 0.0_dp        !< the last output stop of the local loop [s]
@@ -370,6 +373,7 @@ contains
     end if
     if (self%decomposed) then
       call take_brick(everyone, self%dom, self%bodies)
+      self%in_own_bricks = .true.
     else
       ! every body on rank 0 (the only rank of a serial run)
       first = 1

@@ -306,8 +306,17 @@ contains
     call evaluate_owned(self)
     call self%propagator%pack_anchors(self%bodies%n_owned, payload)
     versions = self%events%version(1:self%bodies%n_owned)
-    call migrate_bodies(par, self%dom, self%bodies, err, versions=versions, new_index=new_index, &
-                        stats=self%migration, payload=payload)
+    if (self%in_own_bricks .and. self%bodies%n_ghost == 0) then
+      ! (the first window after simulation_init's take_brick, at the time it took the
+      ! bodies: every body is where migration would leave it, in gid order; 0.1 s of
+      ! copying and sorting for 50,000 bodies a rank)
+      allocate (new_index(self%bodies%n_owned))
+      new_index = [(i, i=1, self%bodies%n_owned)]
+    else
+      call migrate_bodies(par, self%dom, self%bodies, err, versions=versions, new_index=new_index, &
+                          stats=self%migration, payload=payload)
+    end if
+    self%in_own_bricks = .false.
     if (par%any(err%failed())) then
       if (err%ok()) call err%set(ERR_INTERNAL, 'migration failed on another rank')
       return
