@@ -126,7 +126,8 @@ contains
   !> its slot and everything in it (certificate, stamp, gap, action: bodies keep their
   !> global ids, so a stays the lower one); a pair with a body that left is dropped, its slot
   !> freed and listed in dropped(1:n_dropped), in increasing slot order (their queue entries
-  !> are the caller's). Each body's list keeps the order of its remaining pairs. O(pairs).
+  !> are the caller's). Each body's list keeps the order of its remaining pairs. O(pairs),
+  !> O(bodies) when bodies were only appended.
   subroutine store_remap_bodies(self, new_index, n_bodies, dropped, n_dropped)
     class(pair_store_t), intent(inout) :: self
     integer, intent(in) :: new_index(:)
@@ -137,6 +138,17 @@ contains
     integer :: i, slot, ni, old_a, old_b
     logical, allocatable :: keep(:)
     call self%stop_journal()     ! (renumbered rows: a journal kept before means nothing now)
+    ! bodies only appended (a light window start's new ghosts): every pair and list stays as
+    ! it is, which the general path below would also give, in O(pairs) (5-8 ms a window at
+    ! 50,000 bodies a rank, where this is O(bodies appended))
+    if (size(new_index) >= size(self%head) .and. n_bodies >= size(new_index)) then
+      if (all(new_index == [(i, i=1, size(new_index))])) then
+        allocate (dropped(16))
+        n_dropped = 0
+        call self%grow_bodies(max(n_bodies, 1))
+        return
+      end if
+    end if
     allocate (keep(self%n_slots), head(max(n_bodies, 1)), degree(max(n_bodies, 1)), tail(max(n_bodies, 1)), &
               next(2, size(self%a)), dropped(16))
     head = 0

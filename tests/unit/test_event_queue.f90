@@ -507,7 +507,53 @@ contains
       call g%query(j, found, n_found, n_new)
       call check(any(found(1:n_found) == new_index(i)), 'grid renumbered: an arrival placed finds its neighbours')
     end if
+    call appended_only()
   end subroutine renumbering
+
+  !> Bodies only appended (a light window start's new ghosts: new_index the identity on the
+  !> old rows): the store's fast path keeps every slot, certificate and list as it was.
+  subroutine appended_only()
+    integer, parameter :: n = 50, n_more = 7
+    type(pair_store_t) :: s
+    type(random_stream_t) :: rng
+    integer, allocatable :: dropped(:), old_a(:), old_b(:), old_next(:, :), old_head(:), old_degree(:)
+    real(dp), allocatable :: old_gap(:)
+    integer :: i, j, slot, step, n_dropped, identity(n)
+    integer(i8) :: gid(n + n_more)
+    logical :: ok
+    call rng%init(41)
+    gid = [(int(5 * i + 2, i8), i=1, n + n_more)]
+    call s%init(n, 8)
+    do step = 1, 300
+      i = 1 + int(rng%uniform() * n)
+      j = 1 + int(rng%uniform() * n)
+      if (i == j) cycle
+      if (s%find(i, j) > 0) cycle
+      slot = s%add(i, j, gid(i), gid(j))
+      s%gap(slot) = real(slot, dp) + 0.25_dp
+    end do
+    do step = 1, 40      ! some free slots too
+      slot = 1 + int(rng%uniform() * s%n_slots)
+      if (s%a(slot) /= 0) call s%remove(slot)
+    end do
+    old_a = s%a(1:s%n_slots)
+    old_b = s%b(1:s%n_slots)
+    old_gap = s%gap(1:s%n_slots)
+    old_next = s%next(:, 1:s%n_slots)
+    old_head = s%head(1:n)
+    old_degree = s%degree(1:n)
+    identity = [(i, i=1, n)]
+    call s%remap_bodies(identity, n + n_more, dropped, n_dropped)
+    ok = s%check() .and. n_dropped == 0 .and. size(s%head) == n + n_more
+    ok = ok .and. all(s%a(1:size(old_a)) == old_a) .and. all(s%b(1:size(old_b)) == old_b) .and. &
+         all(s%gap(1:size(old_gap)) == old_gap) .and. all(s%next(:, 1:size(old_a)) == old_next)
+    ok = ok .and. all(s%head(1:n) == old_head) .and. all(s%degree(1:n) == old_degree) .and. &
+         all(s%head(n + 1:) == 0) .and. all(s%degree(n + 1:) == 0)
+    call check(ok, 'store, bodies only appended: every slot, certificate and list as it was, the new bodies empty')
+    slot = s%add(n + 1, 1, gid(n + 1), gid(1))
+    call check(s%check() .and. s%degree(n + 1) == 1 .and. s%find(1, n + 1) == slot, &
+               'store, bodies only appended: a pair of a new body added')
+  end subroutine appended_only
 
   subroutine random_region(rng, lower, upper)
     type(random_stream_t), intent(inout) :: rng
