@@ -373,7 +373,7 @@ contains
     type(cell_grid_t) :: g
     type(random_stream_t) :: rng
     type(error_t) :: err
-    integer :: new_index(n), old_of(n_new), i, j, k, slot, h, h_ref, n_dropped, n_found, expected, step
+    integer :: new_index(n), old_of(n_new), i, j, k, slot, h, h_ref, n_dropped, n_found, expected
     integer, allocatable :: dropped(:), found(:), old_list(:, :), old_len(:)
     integer(i8) :: gid(n)
     real(dp) :: t, t_ref, lower(3, n), upper(3, n), gap_of(4 * n * n)
@@ -411,15 +411,7 @@ contains
     call check(q%top() == n_new, 'queue renumbered: room for the new handles')
     ! pair store: random pairs with distinct certificates
     call s%init(n, 8)
-    do step = 1, 400
-      i = 1 + int(rng%uniform() * n)
-      j = 1 + int(rng%uniform() * n)
-      if (i == j) cycle
-      if (s%find(i, j) > 0) cycle
-      slot = s%add(i, j, gid(i), gid(j))
-      s%gap(slot) = real(slot, dp) + 0.5_dp
-      s%stamp(:, slot) = [int(slot, i8), -int(slot, i8)]
-    end do
+    call add_random_pairs(s, rng, gid, 400)
     n_slots_before = s%n_slots
     old_a(1:n_slots_before) = s%a(1:n_slots_before)
     old_b(1:n_slots_before) = s%b(1:n_slots_before)
@@ -518,20 +510,13 @@ contains
     type(random_stream_t) :: rng
     integer, allocatable :: dropped(:), old_a(:), old_b(:), old_next(:, :), old_head(:), old_degree(:)
     real(dp), allocatable :: old_gap(:)
-    integer :: i, j, slot, step, n_dropped, identity(n)
+    integer :: i, slot, step, n_dropped, identity(n)
     integer(i8) :: gid(n + n_more)
     logical :: ok
     call rng%init(41)
     gid = [(int(5 * i + 2, i8), i=1, n + n_more)]
     call s%init(n, 8)
-    do step = 1, 300
-      i = 1 + int(rng%uniform() * n)
-      j = 1 + int(rng%uniform() * n)
-      if (i == j) cycle
-      if (s%find(i, j) > 0) cycle
-      slot = s%add(i, j, gid(i), gid(j))
-      s%gap(slot) = real(slot, dp) + 0.25_dp
-    end do
+    call add_random_pairs(s, rng, gid(1:n), 300)
     do step = 1, 40      ! some free slots too
       slot = 1 + int(rng%uniform() * s%n_slots)
       if (s%a(slot) /= 0) call s%remove(slot)
@@ -554,6 +539,25 @@ contains
     call check(s%check() .and. s%degree(n + 1) == 1 .and. s%find(1, n + 1) == slot, &
                'store, bodies only appended: a pair of a new body added')
   end subroutine appended_only
+
+  !> Up to `tries` random pairs of bodies 1..size(gid) with distinct certificates (gap and
+  !> stamp from the slot).
+  subroutine add_random_pairs(s, rng, gid, tries)
+    type(pair_store_t), intent(inout) :: s
+    type(random_stream_t), intent(inout) :: rng
+    integer(i8), intent(in) :: gid(:)
+    integer, intent(in) :: tries
+    integer :: step, i, j, slot
+    do step = 1, tries
+      i = 1 + int(rng%uniform() * size(gid))
+      j = 1 + int(rng%uniform() * size(gid))
+      if (i == j) cycle
+      if (s%find(i, j) > 0) cycle
+      slot = s%add(i, j, gid(i), gid(j))
+      s%gap(slot) = real(slot, dp) + 0.5_dp
+      s%stamp(:, slot) = [int(slot, i8), -int(slot, i8)]
+    end do
+  end subroutine add_random_pairs
 
   subroutine random_region(rng, lower, upper)
     type(random_stream_t), intent(inout) :: rng
