@@ -23,14 +23,13 @@ contains
     character(len=*), intent(in) :: path
     type(deck_t), intent(out) :: deck
     type(error_t), intent(inout) :: err
-    integer(i8), allocatable :: mine(:, :), all(:, :)
     integer(i8) :: first_failed, speaker
     character(len=:), allocatable :: message
-    integer :: failed, code, first, last, n_words
+    integer :: failed, code, first, last
     type(body_spec_t) :: probe
-    ! (a spec travels as its bits in 64-bit words: a whole number of them, no allocatable
-    ! component; otherwise every rank parses every group, as one rank does)
-    if (par%n_ranks == 1 .or. mod(storage_size(probe), 64) /= 0) then
+    ! (a spec travels as its bytes: a whole number of them, no allocatable component;
+    ! otherwise every rank parses every group, as one rank does)
+    if (par%n_ranks == 1 .or. mod(storage_size(probe), 8) /= 0) then
       call read_deck(path, deck, err)
       return
     end if
@@ -51,14 +50,10 @@ contains
       call err%set(code, message)
       return
     end if
-    ! this rank's block of body specs as words (a body_spec_t holds no allocatable: its bits
-    ! are the whole of it), gathered in rank order: the deck's order
-    n_words = size(transfer(probe, [0_i8]))
+    ! this rank's block of body specs, read in place, gathered in place in rank order: the
+    ! deck's order (a body_spec_t holds no allocatable: its bytes are the whole of it)
     call share_block(deck%n_bodies, [par%rank, par%n_ranks], first, last)
-    allocate (mine(n_words, last - first + 1))
-    if (last >= first) mine = reshape(transfer(deck%bodies(first:last), [0_i8]), shape(mine))
-    call par%allgather_records(mine, all)
-    if (deck%n_bodies > 0) deck%bodies = transfer(all, deck%bodies, deck%n_bodies)
+    call par%allgather_blocks_in_place(deck%bodies, storage_size(probe)/8, max(0, last - first + 1))
     call check_deck_bodies(deck, err)
   end subroutine read_deck_shared
 
