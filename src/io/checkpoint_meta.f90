@@ -59,9 +59,10 @@ module checkpoint_meta
     integer(i8), allocatable :: shape_digests(:)
     character(len=shape_label_length), allocatable :: shape_labels(:)
     !> The effective deck that made the checkpoint (deck_reader effective_deck_lines):
-    !> a restart compares it with its own, variable by variable. As wide as its longest
-    !> line (at most deck_line_length): a line per variable and body, 540,000 lines for
-    !> 27,000 bodies, would be 600 MB at the full width.
+    !> a restart compares it with its own, variable by variable. Writing: this rank's share
+    !> of the lines (the shares in rank order are the deck); read back: all of them, on
+    !> every rank. As wide as the longest line (at most deck_line_length): a line per
+    !> variable and body, 540,000 lines for 27,000 bodies, would be 600 MB at the full width.
     character(len=:), allocatable :: deck_lines(:)
     !> Statistics that later parts of the run accumulate (contacts, events, ...), by name.
     real(dp), allocatable :: counters(:)
