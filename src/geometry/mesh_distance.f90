@@ -335,7 +335,9 @@ contains
     real(dp) function hint_gap2(h)
       type(feature_pair_t), intent(in) :: h
       integer :: region
-      real(dp) :: q(3), s, t, c1(3), c2(3)
+      real(dp) :: q(3), s, t, c1(3), c2(3), d2
+      ! (the squared distance goes to d2, not to the result itself: the function's name as
+      ! an actual argument made gfortran build a trampoline, an executable stack)
       hint_gap2 = 0.0_dp
       if (h%sa < 1 .or. h%sa > tree_a%n_faces .or. h%sb < 1 .or. h%sb > tree_b%n_faces) return
       if (h%ka < 0 .or. h%ka > 3 .or. h%kb < 0 .or. h%kb > 3) return
@@ -344,17 +346,19 @@ contains
         slot_ready(h%sb) = .true.
       end if
       n_prim = n_prim + 1
+      d2 = 0.0_dp
       select case (h%kind)
       case (FEATURE_VERTEX_FACE)
         call closest_point_triangle(tree_a%tri(:, h%ka, h%sa), tb(:, 1, h%sb), tb(:, 2, h%sb), tb(:, 3, h%sb), q, &
-                                    region, hint_gap2)
+                                    region, d2)
       case (FEATURE_EDGE_EDGE)
         call closest_segment_segment(tree_a%tri(:, h%ka, h%sa), tree_a%tri(:, mod(h%ka, 3) + 1, h%sa), &
-                                     tb(:, h%kb, h%sb), tb(:, mod(h%kb, 3) + 1, h%sb), s, t, c1, c2, hint_gap2)
+                                     tb(:, h%kb, h%sb), tb(:, mod(h%kb, 3) + 1, h%sb), s, t, c1, c2, d2)
       case (FEATURE_FACE_VERTEX)
         call closest_point_triangle(tb(:, h%kb, h%sb), tree_a%tri(:, 1, h%sa), tree_a%tri(:, 2, h%sa), &
-                                    tree_a%tri(:, 3, h%sa), q, region, hint_gap2)
+                                    tree_a%tri(:, 3, h%sa), q, region, d2)
       end select
+      hint_gap2 = d2
     end function hint_gap2
 
     !> box_gap2 of box ia of A and box ib of B at the current best2
