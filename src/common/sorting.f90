@@ -9,7 +9,7 @@ module sorting
   use kinds, only: dp, i8
   implicit none
   private
-  public :: sort_index_real, sort_index_keys, find_key, key_less, select_kth
+  public :: sort_index_real, sort_index_keys, find_key, key_less, select_kth, keeps_first
 
   !> select_kth(perm, key, lo, hi, kth): key indexed by perm's entries (key(perm(i)));
   !> select_kth(ids, key, k): key(i) belongs to ids(i) and moves with it. Both give the
@@ -175,5 +175,22 @@ contains
     ids = ids(order)
     key = key(order)
   end subroutine select_kth_paired
+
+  !> Whether a renumbering keeps rows 1..n where they are (new_index(k) = k for k <= n):
+  !> rows were only appended, which the renumbered structures (cell_grid, pair_store) take
+  !> without rebuilding anything.
+  pure logical function keeps_first(new_index, n) result(keeps)
+    integer, intent(in) :: new_index(:)
+    integer, intent(in) :: n
+    integer :: k
+    keeps = size(new_index) >= n
+    if (.not. keeps) return
+    do k = 1, n
+      if (new_index(k) /= k) then
+        keeps = .false.
+        return
+      end if
+    end do
+  end function keeps_first
 
 end module sorting

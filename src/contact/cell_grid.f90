@@ -14,6 +14,7 @@
 module cell_grid
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INPUT, ERR_NUMERIC
+  use sorting, only: keeps_first
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
   private
@@ -339,11 +340,9 @@ contains
     integer(i8), allocatable :: lo(:, :), hi(:, :)
     integer :: i, ni, s, k, kept
     ! bodies only appended (every old body keeps its number): the table stands as it is
-    if (n_bodies >= size(self%placed) .and. size(new_index) >= size(self%placed)) then
-      if (all(new_index(1:size(self%placed)) == [(i, i=1, size(self%placed))])) then
-        call self%grow_bodies(n_bodies)
-        return
-      end if
+    if (n_bodies >= size(self%placed) .and. keeps_first(new_index, size(self%placed))) then
+      call self%grow_bodies(n_bodies)
+      return
     end if
     allocate (placed(n_bodies), large(n_bodies), lower(3, n_bodies), upper(3, n_bodies), lo(3, n_bodies), &
               hi(3, n_bodies))

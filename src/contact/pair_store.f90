@@ -19,6 +19,7 @@
 module pair_store
   use kinds, only: dp, i8
   use row_journal, only: row_journal_t
+  use sorting, only: keeps_first
   implicit none
   private
   public :: pair_store_t
@@ -141,13 +142,12 @@ contains
     ! bodies only appended (a light window start's new ghosts): every pair and list stays as
     ! it is, which the general path below would also give, in O(pairs) (5-8 ms a window at
     ! 50,000 bodies a rank, where this is O(bodies appended))
-    if (size(new_index) >= size(self%head) .and. n_bodies >= size(new_index)) then
-      if (all(new_index == [(i, i=1, size(new_index))])) then
-        allocate (dropped(16))
-        n_dropped = 0
-        call self%grow_bodies(max(n_bodies, 1))
-        return
-      end if
+    if (n_bodies >= size(new_index) .and. size(new_index) >= size(self%head) .and. &
+        keeps_first(new_index, size(new_index))) then
+      allocate (dropped(16))
+      n_dropped = 0
+      call self%grow_bodies(max(n_bodies, 1))
+      return
     end if
     allocate (keep(self%n_slots), head(max(n_bodies, 1)), degree(max(n_bodies, 1)), tail(max(n_bodies, 1)), &
               next(2, size(self%a)), dropped(16))

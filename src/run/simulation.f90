@@ -23,7 +23,7 @@ module simulation
   use migration, only: migrate_bodies, migration_stats_t
   use gid_blocks, only: gather_gid_blocks
   use restart_check, only: check_restored_state, check_same_bodies, compare_decks, deck_change_t
-  use deck_reader, only: effective_deck_lines
+  use deck_reader, only: effective_deck_lines, share_block
   use conservation, only: system_totals_t, compute_totals
   use overlap_check, only: check_initial_overlaps
   use resolution_check, only: check_position_resolution
@@ -435,15 +435,13 @@ contains
   subroutine share_deck_lines(self, par)
     type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
-    integer(i8) :: n
     integer :: groups(2)
     if (par%n_ranks == 1) then
       call effective_deck_lines(self%deck, self%deck_lines)
       return
     end if
-    n = self%deck%n_bodies
-    groups(1) = int(n*par%rank/par%n_ranks) + 1
-    groups(2) = int(n*(par%rank + 1)/par%n_ranks)
+    ! (the block of groups this rank parsed too: shared_deck)
+    call share_block(self%deck%n_bodies, [par%rank, par%n_ranks], groups(1), groups(2))
     call effective_deck_lines(self%deck, self%deck_lines, groups, settings=par%rank == 0)
   end subroutine share_deck_lines
 
