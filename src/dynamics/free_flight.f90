@@ -53,6 +53,7 @@ module free_flight
     procedure :: is_anchored => flight_is_anchored
     procedure :: anchor_words => flight_anchor_words
     procedure :: pack_anchors => flight_pack_anchors
+    procedure :: record_of => flight_record_of
     procedure :: unpack_anchors => flight_unpack_anchors
     procedure :: set_record => flight_set_record
     procedure :: grow => flight_grow
@@ -263,6 +264,14 @@ contains
       call pack_row(self, k, words(:, m))
     end do
   end subroutine flight_pack_anchors
+
+  !> Body k's flight record as anchor_words words (one column of pack_anchors).
+  subroutine flight_record_of(self, k, words)
+    class(free_flight_t), intent(in) :: self
+    integer, intent(in) :: k
+    integer(i8), intent(out) :: words(:)
+    call pack_row(self, k, words)
+  end subroutine flight_record_of
 
   !> Body k's flight record as anchor_words words.
   subroutine pack_row(self, k, words)

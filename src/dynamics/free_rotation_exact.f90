@@ -39,6 +39,9 @@ module free_rotation_exact
 
   type :: free_rotor_t
     integer :: kind = ROTOR_STATIC
+    ! (explicit padding, set: a rotor travels and is compared across ranks as its words, which
+    ! must hold no byte left as it happened to be)
+    integer :: pad_kind = 0
     real(dp) :: q0(4) = [1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp]  !< orientation at t0
     real(dp) :: w0_world(3) = 0.0_dp                        !< world angular velocity at t0 [rad/s]
     real(dp) :: energy = 0.0_dp                             !< kinetic energy [J]
@@ -68,6 +71,7 @@ module free_rotation_exact
     real(dp) :: agm_en(jacobi_agm_max_steps) = 0.0_dp
     real(dp) :: agm_c = 1.0_dp
     integer :: agm_l = 0
+    integer :: pad_agm = 0
   contains
     procedure :: init => rotor_init
     procedure :: evaluate => rotor_evaluate

@@ -42,15 +42,19 @@ module event_loop
   public :: CROSS_OFF, CROSS_SPECULATE, CROSS_RERUN, CROSS_PHASE, STOP_NONE, STOP_CROSS, STOP_HALO
 
   !> Ghost rows (docs/architecture.md, "Cross-rank contacts"): rows after bodies%n_owned
-  !> are other ranks' bodies, read-only here. cross_mode says what an event that needs one
-  !> of them (an impact of a pair with a moving ghost, or an impulse group reaching one)
-  !> does: CROSS_OFF, no ghosts; CROSS_SPECULATE, the run stops there (stop_kind STOP_CROSS)
-  !> and, as it does at a box crossing of an owned body near a neighbouring brick (STOP_HALO),
-  !> leaves the rest to the caller's window (the state is then the caller's to restore);
-  !> CROSS_RERUN, such an event is an internal error (a run repeated up to a time before it);
-  !> CROSS_PHASE, impacts whose pair's lower global id is owned here are taken with the
-  !> ghosts (their new trajectories are the caller's to send to their owners), the others
-  !> dropped (their owners take them).
+  !> are other ranks' bodies. cross_mode says what an event that needs one of them (an
+  !> impact of a pair with a moving ghost, or an impulse group reaching one) does:
+  !> CROSS_OFF, no ghosts; CROSS_SPECULATE, it is taken here as any impact, the ghosts'
+  !> copies given new trajectories too ("Cross-rank impacts computed twice": the other rank
+  !> takes it as well, and the window's end compares the two ranks' change logs), unless
+  !> its impulse group reaches a ghost whose neighbourhood is not all held here; then the
+  !> run stops there (stop_kind STOP_CROSS) and, as it does at a box crossing of an owned
+  !> body near a neighbouring brick (STOP_HALO), leaves the rest to the caller's window (the
+  !> state is then the caller's to restore); CROSS_RERUN, as CROSS_SPECULATE before
+  !> rerun_to (a stop there is an internal error: a run repeated up to a time before it),
+  !> a stop from rerun_to on; CROSS_PHASE, impacts whose pair's lower global id is owned
+  !> here are taken with the ghosts (their new trajectories are the caller's to send to
+  !> their owners), the others dropped (their owners take them).
   integer, parameter :: CROSS_OFF = 0, CROSS_SPECULATE = 1, CROSS_RERUN = 2, CROSS_PHASE = 3
   integer, parameter :: STOP_NONE = 0, STOP_CROSS = 1, STOP_HALO = 2
   integer, parameter :: CROSS_GO = 0, CROSS_STOP = 1, CROSS_DROPPED = 2
@@ -77,6 +81,9 @@ module event_loop
     integer(i8) :: enters = 0            !< free pairs that came within reach of a contact pass
     integer(i8) :: joins = 0             !< free bodies that joined an island at its next step
     integer(i8) :: holds = 0             !< island steps whose pass was held to repeated impacts
+    !> cross-rank impacts taken in a window's speculative run on this rank, which owns the
+    !> pair's lower global id (the other rank takes each too, uncounted)
+    integer(i8) :: cross_impacts = 0
     ! Wall time by kind of event [s] (the summary's time by phase):
     real(dp) :: wall_detection = 0.0_dp  !< pair events without an impact (certificates) and box crossings
     real(dp) :: wall_impacts = 0.0_dp    !< pair events that ended in an impact (certificate + impulses)
@@ -175,6 +182,13 @@ module event_loop
     !> per owned row, in a cross-rank window: the box its centre of mass swept from its first
     !> change on (to the last change; path_close adds the rest) [m]
     real(dp), allocatable :: path_lo(:, :), path_hi(:, :)
+    !> CROSS_SPECULATE: the change log, every new trajectory of a row another rank holds (a
+    !> ghost, or an owned body with zone_sides) in the order taken: row, time [s] and flight
+    !> record (free_flight%record_of), for the window's comparison with the other ranks'
+    integer :: n_change_log = 0
+    integer, allocatable :: change_log_row(:)
+    real(dp), allocatable :: change_log_time(:)
+    integer(i8), allocatable :: change_log_words(:, :)
   contains
     procedure :: init => loop_init
     procedure :: remap_bodies => loop_remap_bodies
@@ -187,7 +201,6 @@ module event_loop
     procedure :: start_cross_window => loop_start_cross_window
     procedure :: zone_sides_of => loop_zone_sides_of
     procedure :: close_paths => loop_close_paths
-    procedure :: queued_cross_time => loop_queued_cross_time
     procedure :: queued_halo_time => loop_queued_halo_time
     procedure :: stop_journal => loop_stop_journal
   end type event_loop_t
@@ -602,10 +615,11 @@ contains
 
   !> What to do with the pair event at the top of the queue (slot, at t) in a run with
   !> ghosts: CROSS_GO on, unless it is an impact that needs a moving ghost. Then
-  !> CROSS_SPECULATE: the run stops before it (stop_kind STOP_CROSS; CROSS_STOP).
-  !> CROSS_RERUN: an internal error (the caller's repeated run reaches only times before
-  !> every such impact). CROSS_PHASE: taken here if the pair's lower global id is owned here
-  !> (CROSS_GO), else dropped, its owner's to take (CROSS_DROPPED: the next event is looked at).
+  !> CROSS_SPECULATE: CROSS_GO (impact() stops the run if its group is not all held here).
+  !> CROSS_RERUN: CROSS_GO before rerun_to, from there the run stops before it (stop_kind
+  !> STOP_CROSS; CROSS_STOP). CROSS_PHASE: taken here if the pair's lower global id is owned
+  !> here (CROSS_GO), else dropped, its owner's to take (CROSS_DROPPED: the next event is
+  !> looked at).
   integer function cross_impact_due(self, bodies, slot, t, err) result(what)
     type(event_loop_t), intent(inout) :: self
     type(bodies_t), intent(in) :: bodies
@@ -621,14 +635,13 @@ contains
     b = self%pairs%b(slot)
     if (.not. (is_moving_ghost(self, bodies, a) .or. is_moving_ghost(self, bodies, b))) return
     select case (self%cross_mode)
-    case (CROSS_SPECULATE, CROSS_RERUN)
-      if (self%cross_mode == CROSS_RERUN .and. t < self%rerun_to) then
-        call err%set(ERR_INTERNAL, 'cross-rank window: bodies '//str(bodies%gid(a))//' and '//str(bodies%gid(b))// &
-                     ' meet at t = '//str(t)//' s in a run repeated to an earlier time')
-        return
+    case (CROSS_SPECULATE)
+      ! (taken: impact() stops the run if its group is not all held here)
+    case (CROSS_RERUN)
+      if (t >= self%rerun_to) then
+        what = CROSS_STOP
+        call stop_for_cross(self, bodies, a, b, [a, b], t)
       end if
-      what = CROSS_STOP
-      call stop_for_cross(self, bodies, a, b, [a, b], t)
     case (CROSS_PHASE)
       lower = a
       if (bodies%gid(b) < bodies%gid(a)) lower = b
@@ -848,6 +861,7 @@ contains
     self%halo_exit_seen = .false.
     self%n_stop_rows = 0
     self%n_dropped_rows = 0
+    self%n_change_log = 0
     if (.not. allocated(self%dropped_rows)) allocate (self%dropped_rows(8))
     if (allocated(self%ghost_changed_at)) deallocate (self%ghost_changed_at)
   end subroutine loop_start_cross_window
@@ -905,7 +919,39 @@ contains
       if (i <= size(self%first_change)) self%first_change(i) = min(self%first_change(i), t)
     end if
     if (.not. bodies%fixed(i)) call flight%anchor_at(bodies, i, t)
+    if (self%cross_mode == CROSS_SPECULATE .and. .not. bodies%fixed(i)) then
+      if (i > self%n_owned .or. self%zone_sides_of(i) /= 0) call log_change(self, flight, i, t)
+    end if
   end subroutine new_trajectory
+
+  !> Row i's new trajectory from t into the change log (see n_change_log).
+  subroutine log_change(self, flight, i, t)
+    type(event_loop_t), intent(inout) :: self
+    type(free_flight_t), intent(in) :: flight
+    integer, intent(in) :: i
+    real(dp), intent(in) :: t
+    integer, allocatable :: rows(:)
+    real(dp), allocatable :: times(:)
+    integer(i8), allocatable :: words(:, :)
+    integer :: n
+    n = self%n_change_log
+    if (.not. allocated(self%change_log_row)) then
+      allocate (self%change_log_row(64), self%change_log_time(64), self%change_log_words(flight%anchor_words(), 64))
+    else if (n == size(self%change_log_row)) then
+      allocate (rows(2*n), times(2*n), words(size(self%change_log_words, 1), 2*n))
+      rows(1:n) = self%change_log_row(1:n)
+      times(1:n) = self%change_log_time(1:n)
+      words(:, 1:n) = self%change_log_words(:, 1:n)
+      call move_alloc(rows, self%change_log_row)
+      call move_alloc(times, self%change_log_time)
+      call move_alloc(words, self%change_log_words)
+    end if
+    n = n + 1
+    self%change_log_row(n) = i
+    self%change_log_time(n) = t
+    call flight%record_of(i, self%change_log_words(:, n))
+    self%n_change_log = n
+  end subroutine log_change
 
   !> Body i's trajectory changed at t (its state is that at t): a new version, counted.
   subroutine count_change(self, i, t)
@@ -1008,33 +1054,11 @@ contains
     if (allocated(self%body_queue)) call self%body_queue%stop_journal()
   end subroutine loop_stop_journal
 
-  !> The earliest impact now in the queue of a pair with a moving ghost (far_future if none)
-  !> [s]: a cross-rank window's speculative run ends there on every rank (the impact then
-  !> goes to the cross phase), so that a window whose run meets nothing earlier needs no
-  !> repetition. Most cross-rank impacts of a gas are known at a window's start: its bodies
-  !> change trajectory far more rarely than a window ends. O(pairs of the moving ghosts).
-  real(dp) function loop_queued_cross_time(self, bodies) result(t)
-    class(event_loop_t), intent(in) :: self
-    type(bodies_t), intent(in) :: bodies
-    integer :: g, slot
-    t = far_future
-    do g = self%n_owned + 1, bodies%n_owned + bodies%n_ghost
-      if (bodies%fixed(g) .or. g > size(self%pairs%head)) cycle
-      slot = self%pairs%head(g)
-      do while (slot > 0)
-        if (self%pairs%action(slot) == ACTION_IMPACT) then
-          if (self%pairs%current(slot, self%version)) t = min(t, self%pairs%t_due(slot))
-        end if
-        slot = self%pairs%next_of(slot, g)
-      end do
-    end do
-  end function loop_queued_cross_time
-
   !> The earliest box crossing now in the queue of an owned moving body that, on the body's
   !> present trajectory, will find it outside what the halo covers (halo_left: a STOP_HALO
-  !> then) (far_future if none) [s]. Like queued_cross_time, a time every rank's
-  !> speculative run can end just before, so that a window ending at a halo stop needs no
-  !> repetition when nothing comes first. A prediction only: a body whose trajectory
+  !> then) (far_future if none) [s]: a time every rank's speculative run can end just
+  !> before, so that a window ending at a halo stop needs no repetition when nothing comes
+  !> first. A prediction only: a body whose trajectory
   !> changes before its crossing makes it void (the window then ends there with nothing to
   !> do), and a halo stop at a placement by an impact is found as before (by the run).
   !> The centre at the crossing is evaluated as flight%evaluate evaluates it.
@@ -1631,7 +1655,9 @@ contains
     type(error_t), intent(inout) :: err
     integer, allocatable :: group(:), contact_slots(:), reseed(:), changed(:)
     integer :: n_group, n_contact, n_reseed, n_changed, k, m
-    logical :: any_change, repeat
+    logical :: any_change, repeat, incomplete, twice
+    type(collision_stage_t) :: counted   ! (the stage's counters only)
+    integer(i8) :: changes_before
     self%stats%impacts = self%stats%impacts + 1
     call check_repeated_impact(self, bodies, stage, slot, t, err)
     if (err%failed()) return
@@ -1643,20 +1669,47 @@ contains
     repeat = .false.
     if (self%n_impacts_now > 0) repeat = any(self%impacts_now(1:self%n_impacts_now) == slot)
     if (.not. repeat) call push(self%impacts_now, self%n_impacts_now, slot)
-    call impulse_group(self, stage, bodies, shapes, flight, slot, t, group, n_group, contact_slots, n_contact, err)
+    call impulse_group(self, stage, bodies, shapes, flight, slot, t, group, n_group, contact_slots, n_contact, err, &
+                       incomplete)
     if (err%failed()) return
-    if (self%cross_mode /= CROSS_OFF .and. self%cross_mode /= CROSS_PHASE) then
-      ! a group of owned bodies reaching another rank's: as a pair with a ghost (see
-      ! cross_impact_due); the state is the caller's to restore
+    twice = .false.
+    if (self%cross_mode == CROSS_SPECULATE .or. self%cross_mode == CROSS_RERUN) then
+      ! a group reaching another rank's body: taken here as on that rank (see CROSS_OFF),
+      ! if every body it may touch is held here; else the run stops (the state is the
+      ! caller's to restore)
       if (any([(is_moving_ghost(self, bodies, group(k)), k=1, n_group)])) then
-        if (self%cross_mode == CROSS_RERUN .and. t < self%rerun_to) then
-          call err%set(ERR_INTERNAL, 'cross-rank window: the impulse group of bodies '// &
-                       str(bodies%gid(self%pairs%a(slot)))//' and '//str(bodies%gid(self%pairs%b(slot)))// &
-                       ' reaches another rank''s body at t = '//str(t)//' s in a run repeated to an earlier time')
+        if (incomplete .or. (self%cross_mode == CROSS_RERUN .and. t >= self%rerun_to)) then
+          if (self%cross_mode == CROSS_RERUN .and. t < self%rerun_to) then
+            call err%set(ERR_INTERNAL, 'cross-rank window: the impulse group of bodies '// &
+                         str(bodies%gid(self%pairs%a(slot)))//' and '//str(bodies%gid(self%pairs%b(slot)))// &
+                         ' reaches beyond the bodies held here at t = '//str(t)// &
+                         ' s in a run repeated to an earlier time')
+            return
+          end if
+          ! (queued again at t, uncounted: the caller's cross phase or next window takes it)
+          self%stats%impacts = self%stats%impacts - 1
+          call set_action(self, bodies, slot, ACTION_IMPACT, t)
+          call stop_for_cross(self, bodies, self%pairs%a(slot), self%pairs%b(slot), group(1:n_group), t)
           return
         end if
-        call stop_for_cross(self, bodies, self%pairs%a(slot), self%pairs%b(slot), group(1:n_group), t)
-        return
+        ! counted (impacts, the stage's counters, the event log) by the owner of the pair's
+        ! lower global id only, so that the counts are those of one rank
+        if (bodies%gid(self%pairs%a(slot)) < bodies%gid(self%pairs%b(slot))) then
+          twice = self%pairs%a(slot) > self%n_owned
+        else
+          twice = self%pairs%b(slot) > self%n_owned
+        end if
+        if (twice) then
+          self%stats%impacts = self%stats%impacts - 1
+          counted%stats = stage%stats
+          counted%impulses = stage%impulses
+          counted%impact_friction = stage%impact_friction
+          counted%residual_pgs = stage%residual_pgs
+          counted%n_log = stage%n_log
+          changes_before = self%stats%trajectory_changes
+        else
+          self%stats%cross_impacts = self%stats%cross_impacts + 1
+        end if
       end if
     end if
     if (self%cross_mode == CROSS_PHASE .and. allocated(self%ghost_changed_at)) then
@@ -1706,6 +1759,21 @@ contains
       n_changed = n_changed + 1
       changed(n_changed) = k
     end do
+    if (twice) then
+      ! (the work counters stay: this rank did the work)
+      counted%stats%pair_tests = stage%stats%pair_tests
+      counted%stats%advancement_iterations = stage%stats%advancement_iterations
+      counted%stats%capped = stage%stats%capped
+      counted%stats%plane_skips = stage%stats%plane_skips
+      counted%stats%convex_bounds = stage%stats%convex_bounds
+      counted%stats%min_separation = stage%stats%min_separation
+      stage%stats = counted%stats
+      stage%impulses = counted%impulses
+      stage%impact_friction = counted%impact_friction
+      stage%residual_pgs = counted%residual_pgs
+      stage%n_log = counted%n_log
+      self%stats%trajectory_changes = changes_before
+    end if
     if (any_change) then
       self%zero_impacts = 0
     else
@@ -1739,7 +1807,8 @@ contains
   !> The impulse group of pair slot at t: the moving bodies connected to it by pairs within
   !> the contact band (group(1:n_group), sleeping islands reached woken and included) and
   !> those pairs (contact_slots(1:n_contact), by global ids).
-  subroutine impulse_group(self, stage, bodies, shapes, flight, slot, t, group, n_group, contact_slots, n_contact, err)
+  subroutine impulse_group(self, stage, bodies, shapes, flight, slot, t, group, n_group, contact_slots, n_contact, err, &
+                           incomplete)
     type(event_loop_t), intent(inout) :: self
     type(collision_stage_t), intent(inout) :: stage
     type(bodies_t), intent(inout) :: bodies
@@ -1750,12 +1819,16 @@ contains
     integer, allocatable, intent(out) :: group(:), contact_slots(:)
     integer, intent(out) :: n_group, n_contact
     type(error_t), intent(inout) :: err
+    !> a ghost of the group lies where not all it may touch is held here (outside
+    !> [complete_lo, complete_hi]): the group is not known here (an error in a cross phase)
+    logical, intent(out) :: incomplete
     integer, allocatable :: woken(:)
     integer :: stamp, k, q, m, i, n_woken, w, n_found
     real(dp) :: gap, normal(3), lb, dt
     allocate (group(16), contact_slots(16))
     n_group = 0
     n_contact = 0
+    incomplete = .false.
     call ensure_pair_marks(self)
     stamp = next_stamp(self)
     call join(self%pairs%a(slot))
@@ -1766,10 +1839,12 @@ contains
       k = k + 1
       i = group(k)
       call sync(self, bodies, flight, i, t)
-      if (self%cross_mode == CROSS_PHASE .and. i > self%n_owned) then
+      if (self%cross_mode /= CROSS_OFF .and. i > self%n_owned) then
         ! a ghost of a cross-rank impact: its pairs with every body held here (those with
         ! ghosts and fixed bodies are not kept otherwise), if all it may touch is held
         if (any(bodies%x(:, i) < self%complete_lo) .or. any(bodies%x(:, i) > self%complete_hi)) then
+          incomplete = .true.
+          if (self%cross_mode /= CROSS_PHASE) return
           call err%set(ERR_INTERNAL, 'cross-rank impact at t = '//str(t)//' s: the impulse group of bodies '// &
                        str(bodies%gid(self%pairs%a(slot)))//' and '//str(bodies%gid(self%pairs%b(slot)))// &
                        ' reaches body '//str(bodies%gid(i))//' too far from this rank''s brick to see all it '// &

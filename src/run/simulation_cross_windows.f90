@@ -74,7 +74,7 @@ contains
     integer(i8), allocatable :: versions(:), start_versions(:)
     integer, allocatable :: dropped(:)
     logical :: need_full
-    real(dp) :: t_stale, t_both, t_known
+    real(dp) :: t_stale, t_both, t_known, t_mismatch
     integer :: n_log, stuck, i, k
     integer(i8) :: events_before
     logical :: checkpointed, exclusive, to_known
@@ -108,13 +108,11 @@ contains
       ! the window's start, to come back to (the event log's rows are only appended: their count)
       call save_state()
       events_before = self%events%stats%impacts
-      ! the earliest cross-rank impact or halo stop known now (queued impacts of pairs with a
-      ! ghost, queued box crossings that will leave the halo's coverage): every rank's run
-      ! ends just before it, and if none meets anything earlier the cross phase follows (the
-      ! events at that time, the crossing's halo stop making the next start a full one)
-      ! with no repetition
-      t_known = par%min(min(self%events%queued_cross_time(self%bodies), &
-                            self%events%queued_halo_time(self%bodies, self%propagator)))
+      ! the earliest halo stop known now (queued box crossings that will leave the halo's
+      ! coverage): every rank's run ends just before it, and if none meets anything earlier
+      ! the cross phase follows (the events at that time, the crossing's halo stop making
+      ! the next start a full one) with no repetition
+      t_known = par%min(self%events%queued_halo_time(self%bodies, self%propagator))
       to_known = t_known <= t_output
       self%events%cross_mode = CROSS_SPECULATE
       call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, min(t_known, t_output), &
@@ -128,18 +126,21 @@ contains
       if (self%events%stop_kind == STOP_CROSS) t_cross = self%events%stop_time
       if (self%events%stop_kind == STOP_HALO) t_late = self%events%stop_time
       call self%events%close_paths(self%bodies, self%propagator, min(t_output, self%events%stop_time))
-      call exchange_changes(self, par, frontier, changed_at, t_both, err)
+      call exchange_changes(self, par, changed_at, t_both, t_mismatch, err)
       if (err%failed()) return
       t_late = min(t_late, t_both)
       if (t_cross < never .and. self%events%n_stop_rows > 0) then
-        ! a cross-rank impact with a ghost its owner had changed by then is none: this rank's
-        ! copy is stale from that change on (the next window's ghosts are fresh)
+        ! a cross-rank impact with a ghost whose copy here was stale by then is none: this
+        ! rank's copy is stale from that change on (the next window's ghosts are fresh)
         t_stale = minval(changed_at(self%events%stop_rows(1:self%events%n_stop_rows)))
         if (t_stale <= t_cross) then
           t_late = min(t_late, t_stale)
           t_cross = never
         end if
       end if
+      ! (an impact taken here that its bodies' owners did not take the same: events up to
+      ! it stand, those at it go to the cross phase)
+      t_cross = min(t_cross, t_mismatch)
       t_cross = par%min(t_cross)
       t_late = par%min(t_late)
       ! (every rank's run reached t_known with nothing before it: the known impact's time is
@@ -164,13 +165,17 @@ contains
             return
           end if
         end if
+        ! (a run repeated to t_v with the events there that stopped at a cross-rank impact
+        ! at t_v, which every rank's speculative run may have taken and a halo stop or
+        ! t_both cut short: the cross phase takes the rest at t_v)
+        if (.not. exclusive) exclusive = par%any(self%events%stop_kind == STOP_CROSS)
         if (exclusive) then
           ! the cross phase: every event at t_v, those needing ghosts by the lower id's owner
           self%cross_count(3) = self%cross_count(3) + 1
           ! (the ghosts their owners changed: a group with one is left to the next window)
           self%events%ghost_changed_at = changed_at
           self%events%cross_mode = CROSS_PHASE
-          versions = self%events%version(1:self%bodies%n_owned)
+          versions = self%events%version(1:self%bodies%n_total())
           call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, t_v, t_hard, err)
           if (par%any(err%failed())) then
             if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank impact failed on another rank')
@@ -391,7 +396,9 @@ contains
   !> since the last start, and, where this rank's run saw a body come within two boxes of a
   !> side it was not sent to (halo_seen), every body now so (re-zoned: its zone grows and
   !> it joins the frontier). A rank holding one as a ghost takes row, record and version bit
-  !> for bit and the loop takes it as a new trajectory (take_ghost_trajectories), as it
+  !> for bit and the loop takes it as a new trajectory (take_ghost_trajectories; unless the
+  !> record is the one it holds, a trajectory both ranks took in the window: only the
+  !> version then), as it
   !> takes the ghosts whose pair a cross phase dropped (dropped: rows), whose pairs it makes
   !> again; a rank whose halo holds one it does not hold yet appends it as a ghost row (in
   !> global-id order), which the loop takes as a full start takes an arrival (remap_bodies:
@@ -409,7 +416,7 @@ contains
     integer, intent(in) :: dropped(:)
     real(dp), intent(in) :: t_hard
     type(error_t), intent(inout) :: err
-    integer(i8), allocatable :: words(:, :), extra(:, :), got(:, :), keys(:, :), new_keys(:, :), versions(:)
+    integer(i8), allocatable :: words(:, :), extra(:, :), got(:, :), keys(:, :), new_keys(:, :), versions(:), record(:)
     real(dp), allocatable :: part(:), send(:), recv(:)
     integer, allocatable :: rows(:), counts(:), neighbours(:), order(:), taken(:), new_rows(:), new_order(:), &
                             new_index(:)
@@ -452,6 +459,7 @@ contains
     extra(w + 1, :) = self%events%version(rows)
     extra(w + 2, :) = int(par%rank, i8)
     call pack_bodies(self%bodies, rows, part, extra_of_rows=extra)
+    allocate (record(w))
     neighbours = self%dom%neighbours()
     allocate (counts(0:par%n_ranks - 1), send(0))
     counts = 0
@@ -478,9 +486,13 @@ contains
         cycle
       end if
       i = order(mid)
+      self%ghost_versions(i) = got(w + 1, k)
+      ! (a trajectory this rank took with its owner in the last window, bit for bit: its
+      ! pairs' certificates stand)
+      call self%propagator%record_of(n0 + i, record)
+      if (all(record == got(1:w, k))) cycle
       call copy_row(arrived, k, self%bodies, n0 + i)
       call self%propagator%set_record(n0 + i, got(1:w, k))
-      self%ghost_versions(i) = got(w + 1, k)
       take(i) = .true.
     end do
     if (par%any(err%failed())) then
@@ -513,7 +525,11 @@ contains
     end if
     do k = 1, size(dropped)
       i = dropped(k) - n0
-      if (i >= 1 .and. i <= ng) take(i) = .true.
+      if (i < 1 .or. i > ng) cycle
+      ! (a dropped ghost its owner did not send, as it did not change it: its row evaluated
+      ! here at the window's start, from the record it has, as a received row would be)
+      if (.not. take(i)) call self%propagator%evaluate(self%bodies, n0 + i, self%time, self%deck%run%gravity)
+      take(i) = .true.
     end do
     taken = pack([(n0 + i, i=1, ng)], take)
     call self%events%take_ghost_trajectories(self%collisions, self%bodies, self%shapes, self%propagator, taken, &
@@ -582,84 +598,229 @@ contains
     end do
   end function near_sides
 
-  !> What the neighbours changed in this window: every rank sends each neighbour its owned
-  !> bodies other ranks hold (frontier) that changed, with the first change and the box
-  !> their centre swept from it to the end of the run (one alltoallv). changed_at(row): when
-  !> a ghost row's owner first changed it (never if not). t_both: the first time from which
-  !> two bodies of two ranks that both changed may meet [s]: each rank certifies its pairs
-  !> with ghosts against the ghost's trajectory of the window's start, which is right while
-  !> the ghost keeps it (a contact is then found by the rank whose body changed); two that
-  !> both changed (at t_a here, t_b there) are seen by nobody from max(t_a, t_b) on, so any
-  !> such two whose swept boxes come within their radii and the band give max(t_a, t_b),
-  !> whether or not a pair of them was ever made (their copies may have been far apart).
-  !> Collective.
-  subroutine exchange_changes(self, par, frontier, changed_at, t_both, err)
+  !> The window's change logs compared with the neighbours' (docs/architecture.md,
+  !> "Cross-rank impacts computed twice"). Every rank sends each neighbour, for every row
+  !> another rank holds that changed in its run (its owned frontier bodies: the owner's log;
+  !> its ghosts: a holder's log), the global id, the sending rank, whose log it is, the box
+  !> the centre swept from its first change (owned rows), the radius, and the changes in
+  !> the order taken (time, flight record; one alltoallv). Two logs of one body agree on a
+  !> prefix of shared changes (the same time and record, bit for bit: both ranks took the
+  !> same impact from the same trajectories); after it, the owner's next change is where
+  !> the holder's copy went stale, and the holder's next change is one the owner did not
+  !> make (a mismatch: an impact taken from a stale copy, or with a group not all known).
+  !> changed_at(row): for a ghost row, when its copy here went stale (never if not).
+  !> t_mismatch: the earliest mismatch this rank sees [s] (every event before it is the
+  !> one-rank run's; events at it are not).
+  !> t_both: the first time from which two bodies of two ranks, each stale on the other
+  !> rank, may meet [s]: each rank certifies its pairs with ghosts against its copy of the
+  !> ghost's trajectory, which is right until that copy goes stale (a contact is then found
+  !> by the rank whose copy is right); two that both went stale (at t_a there, t_b here)
+  !> are seen by nobody from max(t_a, t_b) on, so any such two whose swept boxes come
+  !> within their radii and the band give max(t_a, t_b), whether or not a pair of them was
+  !> ever made (their copies may have been far apart). Collective.
+  subroutine exchange_changes(self, par, changed_at, t_both, t_mismatch, err)
     type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
-    logical, intent(in) :: frontier(:)
     real(dp), allocatable, intent(out) :: changed_at(:)
-    real(dp), intent(out) :: t_both
+    real(dp), intent(out) :: t_both, t_mismatch
     type(error_t), intent(inout) :: err
-    integer, parameter :: w = 9     ! gid, first change, box lower (3) and upper (3), radius
-    real(dp), allocatable :: mine(:), send(:), recv(:)
-    integer(i8), allocatable :: keys(:, :)
-    integer, allocatable :: counts(:), neighbours(:), order(:), rows(:)
-    integer :: i, k, j, n, n0, ng, mid, o
-    real(dp) :: band, reach, glo(3), ghi(3)
+    !> gid, sending rank, owner's log (1) or a holder's (0), changes, box lower (3) and
+    !> upper (3), radius; then per change its time and record
+    integer, parameter :: head = 11
+    real(dp), allocatable :: mine(:), send(:), recv(:), stale_there(:, :), first_time(:)
+    integer(i8), allocatable :: log_keys(:, :), ghost_keys(:, :), owned_keys(:, :), run_keys(:, :)
+    integer, allocatable :: counts(:), neighbours(:), by_row(:), run_start(:), run_rows(:), ghost_order(:), &
+                            owned_runs(:), owned_order(:)
+    integer :: w, n_log, n_runs, i, k, j, m, p, n0, ng, n_total, nc, at, mid, o, source, n_owned_runs
+    real(dp) :: band, reach, glo(3), ghi(3), stale, mismatch
+    real(dp), allocatable :: other_lo(:, :), other_hi(:, :), other_radius(:), other_stale(:)
+    integer :: n_other
+    logical :: owners
     t_both = never
-    allocate (changed_at(self%bodies%n_total()))
+    t_mismatch = never
+    n0 = self%bodies%n_owned
+    ng = self%bodies%n_ghost
+    n_total = n0 + ng
+    allocate (changed_at(n_total))
     changed_at = never
-    n = 0
-    allocate (mine(w*self%bodies%n_owned), rows(0))
-    do i = 1, min(size(frontier), self%bodies%n_owned)
-      if (.not. frontier(i) .or. self%bodies%fixed(i)) cycle
-      if (self%events%first_change(i) >= never) cycle
-      mine(w*n + 1) = transfer(self%bodies%gid(i), 1.0_dp)
-      mine(w*n + 2) = self%events%first_change(i)
-      mine(w*n + 3:w*n + 5) = self%events%path_lo(:, i)
-      mine(w*n + 6:w*n + 8) = self%events%path_hi(:, i)
-      mine(w*n + 9) = self%shapes%shapes(self%bodies%shape_id(i))%bounding_radius
-      rows = [rows, i]
-      n = n + 1
+    w = self%propagator%anchor_words()
+    ! the log's entries by row, each row's in the order taken (a stable sort)
+    n_log = self%events%n_change_log
+    allocate (log_keys(1, n_log))
+    if (n_log > 0) log_keys(1, :) = int(self%events%change_log_row(1:n_log), i8)
+    call sort_index_keys(log_keys, by_row)
+    allocate (run_start(n_log + 1), run_rows(n_log))
+    n_runs = 0
+    do k = 1, n_log
+      if (k == 1) then
+        n_runs = 1
+      else if (log_keys(1, by_row(k)) /= log_keys(1, by_row(k - 1))) then
+        n_runs = n_runs + 1
+      else
+        cycle
+      end if
+      run_start(n_runs) = k
+      run_rows(n_runs) = int(log_keys(1, by_row(k)))
+    end do
+    run_start(n_runs + 1) = n_log + 1
+    ! (rows ascending: searched by find_key)
+    allocate (run_keys(1, n_runs))
+    run_keys(1, :) = int(run_rows(1:n_runs), i8)
+    ! this rank's logs, for every neighbour
+    allocate (mine(n_runs*head + n_log*(1 + w)))
+    at = 0
+    do k = 1, n_runs
+      i = run_rows(k)
+      nc = run_start(k + 1) - run_start(k)
+      mine(at + 1) = transfer(self%bodies%gid(i), 1.0_dp)
+      mine(at + 2) = real(par%rank, dp)
+      mine(at + 3) = merge(1.0_dp, 0.0_dp, i <= n0)
+      mine(at + 4) = real(nc, dp)
+      mine(at + 5:at + 10) = 0.0_dp
+      if (i <= n0) then
+        mine(at + 5:at + 7) = self%events%path_lo(:, i)
+        mine(at + 8:at + 10) = self%events%path_hi(:, i)
+      end if
+      mine(at + 11) = self%shapes%shapes(self%bodies%shape_id(i))%bounding_radius
+      at = at + head
+      do j = run_start(k), run_start(k + 1) - 1
+        m = by_row(j)
+        mine(at + 1) = self%events%change_log_time(m)
+        mine(at + 2:at + 1 + w) = transfer(self%events%change_log_words(:, m), 1.0_dp, w)
+        at = at + 1 + w
+      end do
     end do
     neighbours = self%dom%neighbours()
     allocate (counts(0:par%n_ranks - 1), send(0))
     counts = 0
-    do k = 1, size(neighbours)
-      counts(neighbours(k)) = w*n
-    end do
     do k = 0, par%n_ranks - 1
-      if (counts(k) > 0) send = [send, mine(1:w*n)]
+      if (k == par%rank .or. .not. any(neighbours == k)) cycle
+      counts(k) = at
+      send = [send, mine(1:at)]
     end do
     call par%alltoallv(send, counts, recv, err)
     if (par%any(err%failed())) then
-      if (err%ok()) call err%set(ERR_INTERNAL, 'exchanging changed bodies failed on another rank')
+      if (err%ok()) call err%set(ERR_INTERNAL, 'exchanging the change logs failed on another rank')
       return
     end if
-    ! two that both changed and whose swept boxes come within reach of each other
+    ! the runs of owned rows by gid, and the ghost rows by gid
+    owned_runs = pack([(k, k=1, n_runs)], run_rows(1:n_runs) <= n0)
+    n_owned_runs = size(owned_runs)
+    call gid_index(self%bodies%gid(run_rows(owned_runs)), owned_keys, owned_order)
+    call gid_index(self%bodies%gid(n0 + 1:n_total), ghost_keys, ghost_order)
+    ! stale_there(k, p): from when neighbour p's copy of owned run k is stale; by default
+    ! from its first change (p holds it and took none of its changes, or does not hold it)
+    allocate (stale_there(n_owned_runs, size(neighbours)), first_time(n_owned_runs))
+    do k = 1, n_owned_runs
+      first_time(k) = self%events%change_log_time(by_row(run_start(owned_runs(k))))
+      stale_there(k, :) = first_time(k)
+    end do
+    ! (at most one entry per head received)
+    m = size(recv)/head
+    allocate (other_lo(3, m), other_hi(3, m), other_radius(m), other_stale(m))
+    n_other = 0
+    at = 0
+    do while (at + head <= size(recv))
+      source = nint(recv(at + 2))
+      owners = recv(at + 3) > 0.5_dp
+      nc = nint(recv(at + 4))
+      glo = recv(at + 5:at + 7)
+      ghi = recv(at + 8:at + 10)
+      p = findloc(neighbours, source, 1)
+      if (owners) then
+        ! another rank's body: compared with this rank's copy, if it holds one
+        stale = recv(at + head + 1)
+        mid = find_key(ghost_keys, ng, [transfer(recv(at + 1), 1_i8)])
+        if (mid > 0) then
+          i = n0 + ghost_order(mid)
+          call compare(recv(at + head + 1:at + head + nc*(1 + w)), nc, row_log(i), stale, mismatch)
+          changed_at(i) = stale
+          t_mismatch = min(t_mismatch, mismatch)
+        end if
+        if (stale < never) then
+          n_other = n_other + 1
+          other_lo(:, n_other) = glo
+          other_hi(:, n_other) = ghi
+          other_radius(n_other) = recv(at + 11)
+          other_stale(n_other) = stale
+        end if
+      else
+        ! another rank's copy of a body of this one: the owner's log (empty if it made no change)
+        mid = 0
+        if (n_owned_runs > 0) mid = find_key(owned_keys, n_owned_runs, [transfer(recv(at + 1), 1_i8)])
+        if (mid == 0) then
+          t_mismatch = min(t_mismatch, recv(at + head + 1))
+        else
+          o = owned_order(mid)
+          call compare_owned(owned_runs(o), stale, mismatch)
+          if (p > 0) stale_there(o, p) = stale
+          t_mismatch = min(t_mismatch, mismatch)
+        end if
+      end if
+      at = at + head + nc*(1 + w)
+    end do
+    ! two bodies stale on each other's ranks whose swept boxes come within reach
     band = self%collisions%target + self%collisions%tolerance + self%collisions%contact_tolerance
-    do k = 1, size(recv)/w
-      glo = recv(w*(k - 1) + 3:w*(k - 1) + 5)
-      ghi = recv(w*(k - 1) + 6:w*(k - 1) + 8)
-      do j = 1, n
-        o = rows(j)
-        reach = mine(w*(j - 1) + 9) + recv(w*k) + band
-        if (any(self%events%path_lo(:, o) - reach > ghi) .or. any(self%events%path_hi(:, o) + reach < glo)) cycle
-        t_both = min(t_both, max(self%events%first_change(o), recv(w*(k - 1) + 2)))
+    do k = 1, n_other
+      do j = 1, n_owned_runs
+        o = run_rows(owned_runs(j))
+        reach = self%shapes%shapes(self%bodies%shape_id(o))%bounding_radius + other_radius(k) + band
+        if (any(self%events%path_lo(:, o) - reach > other_hi(:, k)) .or. &
+            any(self%events%path_hi(:, o) + reach < other_lo(:, k))) cycle
+        t_both = min(t_both, max(minval(stale_there(j, :)), other_stale(k)))
       end do
     end do
-    ! the ghost rows by gid (halo ghosts first, fixed ones after: sorted here)
-    n0 = self%bodies%n_owned
-    ng = self%bodies%n_ghost
-    if (ng == 0) return
-    call gid_index(self%bodies%gid(n0 + 1:n0 + ng), keys, order)
-    do k = 1, size(recv)/w
-      mid = find_key(keys, ng, [transfer(recv(w*(k - 1) + 1), 1_i8)])
-      if (mid > 0) changed_at(n0 + order(mid)) = min(changed_at(n0 + order(mid)), recv(w*(k - 1) + 2))
-    end do
+  contains
+    !> The log entries of row i (positions in the change log, in the order taken).
+    function row_log(i) result(entries)
+      integer, intent(in) :: i
+      integer, allocatable :: entries(:)
+      integer :: r
+      allocate (entries(0))
+      r = find_key(run_keys, n_runs, [int(i, i8)])
+      if (r > 0) entries = by_row(run_start(r):run_start(r + 1) - 1)
+    end function row_log
+    !> An owner's log (received: nc changes) against this rank's entries of the body.
+    subroutine compare(owner_log, nc, entries, stale, mismatch)
+      real(dp), intent(in) :: owner_log(:)
+      integer, intent(in) :: nc
+      integer, intent(in) :: entries(:)
+      real(dp), intent(out) :: stale, mismatch
+      integer :: c, q
+      c = 1
+      do while (c <= nc .and. c <= size(entries))
+        q = (c - 1)*(1 + w)
+        if (owner_log(q + 1) /= self%events%change_log_time(entries(c))) exit
+        if (any(transfer(owner_log(q + 2:q + 1 + w), 1_i8, w) /= self%events%change_log_words(:, entries(c)))) exit
+        c = c + 1
+      end do
+      stale = never
+      if (c <= nc) stale = owner_log((c - 1)*(1 + w) + 1)
+      mismatch = never
+      if (c <= size(entries)) mismatch = self%events%change_log_time(entries(c))
+    end subroutine compare
+    !> This rank's log of its owned run r against a holder's log received at recv(at+1:).
+    subroutine compare_owned(r, stale, mismatch)
+      integer, intent(in) :: r
+      real(dp), intent(out) :: stale, mismatch
+      integer :: c, q, n_mine, e
+      n_mine = run_start(r + 1) - run_start(r)
+      c = 1
+      do while (c <= nc .and. c <= n_mine)
+        q = at + head + (c - 1)*(1 + w)
+        e = by_row(run_start(r) + c - 1)
+        if (recv(q + 1) /= self%events%change_log_time(e)) exit
+        if (any(transfer(recv(q + 2:q + 1 + w), 1_i8, w) /= self%events%change_log_words(:, e))) exit
+        c = c + 1
+      end do
+      stale = never
+      if (c <= n_mine) stale = self%events%change_log_time(by_row(run_start(r) + c - 1))
+      mismatch = never
+      if (c <= nc) mismatch = recv(at + head + (c - 1)*(1 + w) + 1)
+    end subroutine compare_owned
   end subroutine exchange_changes
 
-  !> After a cross phase at t: every ghost whose trajectory this rank changed goes to its
+  !> After a cross phase at t: every ghost whose trajectory this rank changed in it goes to its
   !> owner (row and flight record, one alltoallv), who takes both bit for bit. A body
   !> changed at t by two ranks (its owner, or two others) would need their groups solved
   !> together: an error naming it (not built yet; no validation scene has one).
@@ -667,7 +828,7 @@ contains
     type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
     integer, intent(in) :: owner(:)
-    integer(i8), intent(in) :: versions(:)     !< the owned rows' versions before the phase
+    integer(i8), intent(in) :: versions(:)     !< every row's version before the phase
     real(dp), intent(in) :: t
     type(error_t), intent(inout) :: err
     integer(i8), allocatable :: words(:, :), got(:, :), keys(:, :)
@@ -677,9 +838,10 @@ contains
     type(bodies_t) :: arrived
     integer :: n0, r, i, k, row, mid
     n0 = self%bodies%n_owned
-    ! the ghosts this rank changed (O(ghosts), not O(rows held))
+    ! the ghosts this rank changed in the phase (those its run changed before, its owner did
+    ! too: the window's change logs agreed up to the phase) (O(ghosts), not O(rows held))
     changed = pack([(i, i=n0 + 1, self%bodies%n_total())], &
-                   [(self%events%first_change(i) <= t, i=n0 + 1, self%bodies%n_total())])
+                   [(self%events%version(i) /= versions(i), i=n0 + 1, self%bodies%n_total())])
     allocate (counts(0:par%n_ranks - 1), send(0))
     do r = 0, par%n_ranks - 1
       counts(r) = 0

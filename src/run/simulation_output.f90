@@ -149,7 +149,7 @@ contains
   module procedure simulation_summary
     real(dp) :: wall, per_step, min_sep, load(3, 3), startup, window_wall, window_loop_wall
     integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages, window_certificates, window_rebuilds
-    integer(i8) :: convex_bounds, cross_count(6), deferred
+    integer(i8) :: convex_bounds, cross_count(6), deferred, cross_impacts
     real(dp) :: cross_wall(2), rate
     wall = par%wtime() - self%wall_start
     ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
@@ -171,6 +171,7 @@ contains
     cross_count(4) = par%sum(self%cross_count(4))
     cross_count(5) = self%cross_count(5)
     cross_count(6) = par%sum(self%cross_count(6))
+    cross_impacts = par%sum(self%events%stats%cross_impacts)
     cross_wall = [par%max(self%cross_wall(1)), par%max(self%cross_wall(2))]
     deferred = par%sum(self%events%deferred)
     ! Over every rank (collective, before rank 0 alone goes on to print).
@@ -225,6 +226,8 @@ contains
         write (*, '(a)') '  window costs         '//str(cross_wall(1), '(es9.3)')//' s starting windows (migration, '// &
           'halo, loop built; or the changed ghosts), '//str(cross_wall(2), '(es9.3)')//' s in runs repeated to an earlier time (slowest rank); '// &
           str(deferred)//' cross-rank impacts left to the next window (a ghost in their group was stale)'
+        write (*, '(a)') '  cross-rank impacts   '//str(cross_impacts)//' taken by both ranks in the windows'' runs '// &
+          '(their change logs agreed at the window''s end)'
       else if (self%decomposed) then
         write (*, '(a)') '  windows              '//str(self%windows)//' ended by a migration: '//str(migrated)// &
           ' bodies changed rank, '//str(messages)//' messages, '//str(bytes)//' bytes'

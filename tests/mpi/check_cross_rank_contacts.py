@@ -107,6 +107,16 @@ def rezoned_count(text):
     return int(m.group(1)) if m else None
 
 
+def shared_impacts(text):
+    """Cross-rank impacts taken by both ranks in the windows' runs, from the summary."""
+    m = re.search(r"cross-rank impacts\s+(\d+) taken by both ranks", text)
+    return int(m.group(1)) if m else None
+
+
+# per scene and rank count: (cross-rank impacts taken by both ranks in a window's run, ghosts
+# a cross phase sent back to their owners): both ways are part of the bitwise comparison
+paths = {}
+
 # windows run again after a restore, per scene and rank count: the restore (the loop's undo
 # journals rolled back) is then part of what the bitwise comparison checks
 repeated_windows = {}
@@ -123,10 +133,15 @@ def compare(name, path, ranks_list, need_cross=True, need_light=False):
         c.check(counts is not None, f"{name} on {ranks} ranks: cross-rank windows ({proc.stdout[-400:]})")
         if counts:
             repeated_windows[f"{name}_{ranks}"] = counts[1]
-        if counts and need_cross:
-            c.check(counts[2] > 0 and counts[3] > 0, f"{name} on {ranks} ranks: impacts across ranks happened "
-                                                    f"(windows, repeated, phases, ghosts sent, light, migrated: "
-                                                    f"{counts})")
+        shared = shared_impacts(proc.stdout)
+        c.check(shared is not None, f"{name} on {ranks} ranks: cross-rank impacts line ({proc.stdout[-400:]})")
+        if counts and shared is not None:
+            paths[f"{name}_{ranks}"] = (shared, counts[3])
+        if counts and need_cross and shared is not None:
+            # (taken by both ranks in a window's run, or by one in a cross phase)
+            c.check(shared > 0 or counts[3] > 0, f"{name} on {ranks} ranks: impacts across ranks happened "
+                                                 f"(windows, repeated, phases, ghosts sent, light, migrated: "
+                                                 f"{counts}; taken by both: {shared})")
         if counts and need_light:
             # (light starts, where only the ghosts that changed come again, are then part of
             # what the bitwise comparison below checks)
@@ -197,6 +212,9 @@ for k in range(n):
                  % (k, SPHERE, *map(float, pos[k]), *map(float, vel[k])))
 gas = deck("gas.nml", "\n".join(lines) + "\n")
 gas_one = compare("gas", gas, (2, 3, 4), need_light=True)
+c.check(sum(v[0] for v in paths.values()) > 0 and sum(v[1] for v in paths.values()) > 0,
+        f"cross-rank impacts were taken both ways: by both ranks in a window's run, and by one in a cross phase "
+        f"with its ghosts sent back ((both, sent back) per run: {paths})")
 c.check(sum(v for k, v in repeated_windows.items() if k.startswith("gas_")) > 0,
         f"gas: some window was run again from its restored start ({repeated_windows})")
 # The same gas with skin = 0: a body migrates at the first window start after it left its
