@@ -226,18 +226,25 @@ contains
   !> with their extras (a header alone when there are none, so every message can be
   !> checked), or nothing without a neighbour (neighbour < 0: MPI_PROC_NULL sends nothing).
   !> messages, n_sent, bytes: the sender's counts, added to.
-  subroutine pack_for_neighbour(bodies, rows, extra, n_extra, neighbour, buffer, messages, n_sent, bytes)
+  subroutine pack_for_neighbour(bodies, rows, extra, n_extra, neighbour, buffer, messages, n_sent, bytes, by_position)
     type(bodies_t), intent(in) :: bodies
     integer, intent(in) :: rows(:)
     integer(i8), intent(in) :: extra(:, :)
     integer, intent(in) :: n_extra, neighbour
     real(dp), allocatable, intent(out) :: buffer(:)
     integer(i8), intent(inout) :: messages, n_sent, bytes
+    !> extra(:, k) is the extras of rows(k) (pack_bodies' extra_of_rows), not of row k
+    logical, intent(in), optional :: by_position
+    logical :: positional
+    positional = .false.
+    if (present(by_position)) positional = by_position
     if (neighbour < 0) then
       allocate (buffer(0))
       return
     end if
-    if (n_extra > 0) then
+    if (n_extra > 0 .and. positional) then
+      call pack_bodies(bodies, rows, buffer, extra_of_rows=extra)
+    else if (n_extra > 0) then
       call pack_bodies(bodies, rows, buffer, extra)
     else
       call pack_bodies(bodies, rows, buffer)

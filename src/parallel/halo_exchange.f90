@@ -49,14 +49,19 @@ contains
   !> the exchange (0 without versions). stats: this exchange's counts added.
   !> payload(:, k): more of the caller's words of owned row k (its flight record: the
   !> anchor), travelling with it bit for bit; ghost_payload(:, k): those of ghost row
-  !> n_owned + k after the exchange (both or neither).
+  !> n_owned + k after the exchange (both or neither). payload_rows, when present:
+  !> payload(:, k) is owned row payload_rows(k)'s instead, and only the rows this rank
+  !> sends need one (those within `rings` boxes of a side with a neighbour: a caller's
+  !> payload then costs what the halo does, not O(owned bodies); a row sent without one is
+  !> an internal error).
   !>
   !> Collective over the Cartesian communicator. Misuse that every rank sees alike (rings,
   !> no or another rank grid) returns before any message. A failure of this rank alone (a
   !> NaN position, short versions, a bad buffer) still takes part in every pass, sending
   !> nothing more, so no rank waits forever; err says what, on this rank only: the caller
   !> reduces it (par%any) as it does for its other errors. The ghosts are then incomplete.
-  subroutine exchange_halo(par, dom, bodies, rings, err, versions, ghost_versions, stats, payload, ghost_payload)
+  subroutine exchange_halo(par, dom, bodies, rings, err, versions, ghost_versions, stats, payload, ghost_payload, &
+                           payload_rows)
     type(parallel_t), intent(in) :: par
     type(domain_t), intent(in) :: dom
     type(bodies_t), intent(inout) :: bodies
@@ -67,7 +72,12 @@ contains
     type(halo_stats_t), intent(inout), optional :: stats
     integer(i8), intent(in), optional :: payload(:, :)
     integer(i8), allocatable, intent(out), optional :: ghost_payload(:, :)
-    integer(i8), allocatable :: extra(:, :)   ! (n_extra, rows): the version, then the payload, of every row
+    integer, intent(in), optional :: payload_rows(:)
+    !> (n_extra, ghost rows): the version, then the payload, of every ghost row (an owned
+    !> row's come from versions and payload as it is sent: no copy of every owned row's)
+    integer(i8), allocatable :: extra(:, :)
+    integer, allocatable :: column(:)
+    integer :: n0
     type(halo_stats_t) :: counts
     type(error_t) :: pass_err
     real(dp), allocatable :: recv_minus(:), recv_plus(:)
@@ -101,22 +111,33 @@ contains
     n_version = 0
     if (present(versions)) n_version = 1
     n_extra = n_version + n_payload
-    allocate (extra(n_extra, bodies%n_owned))
-    extra = 0
-    if (n_payload > 0) then
-      if (size(payload, 2) < bodies%n_owned) then
-        call err%set(ERR_INTERNAL, 'halo exchange: payload for '//str(size(payload, 2))//' of '// &
-                     str(bodies%n_owned)//' owned bodies')
-      else
-        extra(n_version + 1:n_extra, :) = payload(:, 1:bodies%n_owned)
+    n0 = bodies%n_owned
+    allocate (extra(n_extra, 0))
+    ! column(row): the payload's column of owned row row (0: none)
+    allocate (column(n0))
+    if (present(payload_rows)) then
+      column = 0
+      if (n_payload > 0) then
+        if (size(payload_rows) /= size(payload, 2)) then
+          call err%set(ERR_INTERNAL, 'halo exchange: '//str(size(payload_rows))//' payload rows for '// &
+                       str(size(payload, 2))//' payload columns')
+        else if (any(payload_rows < 1 .or. payload_rows > n0)) then
+          call err%set(ERR_INTERNAL, 'halo exchange: a payload row is not an owned row')
+        else
+          column(payload_rows) = [(k, k=1, size(payload_rows))]
+        end if
+      end if
+    else
+      column = [(k, k=1, n0)]
+      if (n_payload > 0) then
+        if (size(payload, 2) < n0) call err%set(ERR_INTERNAL, 'halo exchange: payload for '// &
+                                                 str(size(payload, 2))//' of '//str(n0)//' owned bodies')
       end if
     end if
     if (present(versions)) then
-      if (size(versions) < bodies%n_owned) then
+      if (size(versions) < n0) then
         call err%set(ERR_INTERNAL, 'halo exchange: '//str(size(versions))//' versions for '// &
-                     str(bodies%n_owned)//' owned bodies')
-      else
-        extra(1, :) = versions(1:bodies%n_owned)
+                     str(n0)//' owned bodies')
       end if
     end if
     do k = 1, bodies%n_owned
@@ -135,6 +156,7 @@ contains
       end do
       block
         real(dp), allocatable :: to_minus(:), to_plus(:)
+        integer(i8), allocatable :: sent_extra(:, :)
         do side = 1, 2
           direction = 2*axis - 2 + side
           rows = [integer ::]
@@ -142,12 +164,13 @@ contains
             boxes = dom%halo_send_boxes(direction, rings)
             rows = rows_in(dom, bodies, boxes)
           end if
+          call extras_of(rows, sent_extra)
           if (side == 1) then
-            call pack_for_neighbour(bodies, rows, extra, n_extra, neighbour(side), to_minus, counts%messages_sent, &
-                                    counts%bodies_sent, counts%bytes_sent)
+            call pack_for_neighbour(bodies, rows, sent_extra, n_extra, neighbour(side), to_minus, &
+                                    counts%messages_sent, counts%bodies_sent, counts%bytes_sent, by_position=.true.)
           else
-            call pack_for_neighbour(bodies, rows, extra, n_extra, neighbour(side), to_plus, counts%messages_sent, &
-                                    counts%bodies_sent, counts%bytes_sent)
+            call pack_for_neighbour(bodies, rows, sent_extra, n_extra, neighbour(side), to_plus, &
+                                    counts%messages_sent, counts%bodies_sent, counts%bytes_sent, by_position=.true.)
           end if
         end do
         call par%exchange_faces(axis, neighbour(1), neighbour(2), to_minus, to_plus, recv_minus, recv_plus, &
@@ -165,12 +188,12 @@ contains
       deallocate (ghost_versions)
       allocate (ghost_versions(bodies%n_ghost))
       ghost_versions = 0
-      if (n_version > 0) ghost_versions = extra(1, bodies%n_owned + 1:bodies%n_total())
+      if (n_version > 0) ghost_versions = extra(1, :)
     end if
     if (present(ghost_payload)) then
       deallocate (ghost_payload)
       allocate (ghost_payload(n_payload, bodies%n_ghost))
-      if (n_payload > 0) ghost_payload = extra(n_version + 1:n_extra, bodies%n_owned + 1:bodies%n_total())
+      if (n_payload > 0) ghost_payload = extra(n_version + 1:n_extra, :)
     end if
     counts%exchanges = 1
     if (present(stats)) then
@@ -181,6 +204,31 @@ contains
       stats%bodies_received = stats%bodies_received + counts%bodies_received
       stats%bytes_received = stats%bytes_received + counts%bytes_received
     end if
+  contains
+    !> The extras of rows (owned: version and payload column; ghosts: as they came).
+    subroutine extras_of(rows, words)
+      integer, intent(in) :: rows(:)
+      integer(i8), allocatable, intent(out) :: words(:, :)
+      integer :: m, r
+      allocate (words(n_extra, size(rows)))
+      if (n_extra == 0) return
+      do m = 1, size(rows)
+        r = rows(m)
+        if (r > n0) then
+          words(:, m) = extra(:, r - n0)
+          cycle
+        end if
+        if (n_version > 0) words(1, m) = versions(r)
+        if (n_payload == 0) cycle
+        if (column(r) == 0) then
+          words(n_version + 1:, m) = 0
+          if (err%ok()) call err%set(ERR_INTERNAL, 'halo exchange: body '//str(bodies%gid(r))// &
+                                     ' is sent without its payload')
+          cycle
+        end if
+        words(n_version + 1:, m) = payload(:, column(r))
+      end do
+    end subroutine extras_of
   end subroutine exchange_halo
 
   !> The rows (owned and ghost) whose centre of mass lies in boxes (box_of: clamped to the
@@ -226,16 +274,16 @@ contains
         return
       end if
     end if
-    n_before = bodies%n_total()
+    n_before = bodies%n_ghost
     call unpack_bodies(buffer, bodies, .true., err, first, got)
     if (err%failed()) then
       call err%prefix('halo exchange: from rank '//str(neighbour)//': ')
       return
     end if
-    counts%bodies_received = counts%bodies_received + (bodies%n_total() - n_before)
-    allocate (grown(n_extra, bodies%n_total()))
+    counts%bodies_received = counts%bodies_received + (bodies%n_ghost - n_before)
+    allocate (grown(n_extra, bodies%n_ghost))
     grown(:, 1:n_before) = extra(:, 1:n_before)
-    if (n_extra > 0) grown(:, first:bodies%n_total()) = got
+    if (n_extra > 0) grown(:, first - bodies%n_owned:bodies%n_ghost) = got
     call move_alloc(grown, extra)
   end subroutine take_ghosts
 
@@ -266,7 +314,7 @@ contains
     call sorted%append_rows(bodies, n0 + order, .true.)
     bodies%n_ghost = 0
     call bodies%append_rows(sorted, [(k, k=1, ng)], .true.)
-    if (size(extra, 1) > 0) extra(:, n0 + 1:n0 + ng) = extra(:, n0 + order)
+    if (size(extra, 1) > 0) extra(:, 1:ng) = extra(:, order)
   end subroutine sort_ghosts
 
   !> The staged exchanges' precondition, the same on every rank (so a failure returns
