@@ -7,14 +7,21 @@
 !>     bodies of the scene added as ghosts where not held; the loop follows (remap_bodies:
 !>     owned pairs keep their certificates, the ghosts' pairs are made and certified; pairs
 !>     of two ghosts are their owners');
-!>  2. a speculative run to the next output time that stops at the first impact needing a
-!>     moving ghost (its pair, or its impulse group: t_cross) or at a box crossing that
-!>     leaves what the halo covers (t_halo: a body held as a ghost elsewhere leaving its
-!>     brick, or another body coming within two boxes of a neighbouring brick);
-!>  3. the owned bodies other ranks hold that changed go to the neighbours (gid, first
-!>     change): t_both, the first time both bodies of a pair with a ghost follow trajectories
-!>     the other rank has not seen; a t_cross whose ghost had changed by then is void (the
-!>     time of that change counts instead);
+!>  2. a speculative run to the next output time, in which an impact with a moving ghost
+!>     (its pair, or its impulse group) is taken as any other, the ghosts' copies given new
+!>     trajectories too: the other rank takes the same impact from the same trajectories
+!>     (docs/architecture.md, "Cross-rank impacts computed twice"). It stops only at an
+!>     impact whose group reaches a ghost not all of whose neighbourhood is held here
+!>     (t_cross) or at a box crossing that leaves what the halo covers (t_halo: a body held
+!>     as a ghost elsewhere leaving its brick, or another body coming within two boxes of a
+!>     neighbouring brick). Every new trajectory of a row another rank holds goes to the
+!>     loop's change log (time, flight record);
+!>  3. the change logs go to the neighbours (exchange_changes): two logs of one body agree
+!>     on a prefix of shared changes; after it the owner's next change is where the other
+!>     copy went stale (changed_at), the other rank's next change an impact the owner did
+!>     not take alike (a mismatch, t_mismatch, which joins t_cross); t_both, the first time
+!>     two bodies of two ranks, each stale on the other's rank, may meet; a t_cross whose
+!>     ghost was stale by then is void (the time it went stale counts instead);
 !>  4. one allreduce of t_cross and min(t_halo, t_both): if both are at or after the output
 !>     time the window stands. Otherwise every rank restores the window's start (bodies,
 !>     flight records, the loop, the stage's counters) and runs again, to t_cross without
@@ -22,10 +29,12 @@
 !>     impacts needing ghosts are taken by the owner of the pair's lower global id with the
 !>     ghosts (the cross phase), and the ghosts it changed go to their owners, who take
 !>     their new rows and anchors bit for bit.
-!> Why it is exact: within a window a pair with a ghost is certified by the rank whose body
-!> changed, against the ghost's trajectory, right until both changed (t_both); no rank's
-!> event depends on a body it does not hold (t_halo, with the brick size of cross_box_size)
-!> or on an impact another rank takes (t_cross); the run repeated from the start is the
+!> Why it is exact: within a window a pair with a ghost is certified by the rank whose copy
+!> of the other body is right, right until both copies went stale (t_both); no rank's event
+!> depends on a body it does not hold (t_halo, with the brick size of cross_box_size) or on
+!> an impact another rank takes (t_cross); an impact both ranks took used only copies that
+!> were right (an input that was not shows as a mismatch at its time, before which every
+!> change of every shared body agrees bit for bit); the run repeated from the start is the
 !> same deterministic run, cut earlier. Events are the one-rank run's, at the same times
 !> with the same bits: times of contact are functions of the two trajectories
 !> (time_of_contact's canonical crossing, taken as an absolute time), whatever certificate
