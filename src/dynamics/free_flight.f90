@@ -64,23 +64,33 @@ module free_flight
 
 contains
 
-  subroutine flight_init(self, n_bodies, config)
+  subroutine flight_init(self, n_bodies, config, capacity)
     class(free_flight_t), intent(inout) :: self
     integer, intent(in) :: n_bodies
     type(integrator_config_t), intent(in) :: config
+    !> rows to allocate if more than n_bodies: room for rows grow will add (a decomposed
+    !> run's ghosts), which would otherwise reallocate and copy every record (~90 words
+    !> each) into fresh pages
+    integer, intent(in), optional :: capacity
+    integer :: n_rows
+    n_rows = n_bodies
+    if (present(capacity)) n_rows = max(n_bodies, capacity)
     self%exact = config%rotation == ROTATION_EXACT
     self%journaling = .false.
     self%n_journal = 0
     if (allocated(self%journaled)) deallocate (self%journaled)
     if (allocated(self%loaded)) deallocate (self%loaded, self%accel)
-    allocate (self%loaded(n_bodies), self%accel(3, n_bodies))
+    allocate (self%loaded(n_rows), self%accel(3, n_rows))
     self%loaded = .false.
     self%accel = 0.0_dp
     if (.not. self%exact) return
     if (allocated(self%rotors)) deallocate (self%rotors, self%t0, self%x0, self%v0, self%anchored)
-    allocate (self%rotors(n_bodies), self%t0(n_bodies), self%x0(3, n_bodies), self%v0(3, n_bodies), &
-              self%anchored(n_bodies))
+    allocate (self%rotors(n_rows), self%t0(n_rows), self%x0(3, n_rows), self%v0(3, n_rows), &
+              self%anchored(n_rows))
     self%anchored = .false.
+    self%t0 = 0.0_dp
+    self%x0 = 0.0_dp
+    self%v0 = 0.0_dp
   end subroutine flight_init
 
   !> Body i's velocity or angular velocity changed (an impulse): re-anchor at its next step.

@@ -383,7 +383,14 @@ contains
       call take_rows(everyone, first, last, self%bodies)
     end if
     call everyone%free()
-    call self%propagator%init(self%bodies%n_owned, deck%integrator)
+    if (self%cross_windows) then
+      ! (room for the first window's ghosts: a quarter of the owned rows, 12% for the
+      ! 100,000-sphere gas on two ranks; more are taken by a reallocation)
+      call self%propagator%init(self%bodies%n_owned, deck%integrator, &
+                                capacity=self%bodies%n_owned + self%bodies%n_owned/4)
+    else
+      call self%propagator%init(self%bodies%n_owned, deck%integrator)
+    end if
 
     self%collisions%log_events = deck%output%event_log
     call choose_event_loop(deck, self%local, err)
