@@ -135,7 +135,7 @@ contains
       if (self%events%stop_kind == STOP_CROSS) t_cross = self%events%stop_time
       if (self%events%stop_kind == STOP_HALO) t_late = self%events%stop_time
       call self%events%close_paths(self%bodies, self%propagator, min(t_output, self%events%stop_time))
-      call exchange_changes(self, par, changed_at, t_both, t_mismatch, err)
+      call exchange_changes(self, par, owner, changed_at, t_both, t_mismatch, err)
       if (err%failed()) return
       t_late = min(t_late, t_both)
       if (t_cross < never .and. self%events%n_stop_rows > 0) then
@@ -653,14 +653,15 @@ contains
   !> are seen by nobody from max(t_a, t_b) on, so any such two whose swept boxes come
   !> within their radii and the band give max(t_a, t_b), whether or not a pair of them was
   !> ever made (their copies may have been far apart). Collective.
-  subroutine exchange_changes(self, par, changed_at, t_both, t_mismatch, err)
+  subroutine exchange_changes(self, par, owner, changed_at, t_both, t_mismatch, err)
     type(simulation_t), intent(inout) :: self
     type(parallel_t), intent(in) :: par
+    integer, intent(in) :: owner(:)     !< the rank owning each row (see start_window)
     real(dp), allocatable, intent(out) :: changed_at(:)
     real(dp), intent(out) :: t_both, t_mismatch
     type(error_t), intent(inout) :: err
-    !> gid, sending rank, owner's log (1) or a holder's (0), changes, box lower (3) and
-    !> upper (3), radius; then per change its time and record
+    !> gid, sending rank, owning rank (the sender's: the owner's log; another: a holder's),
+    !> changes, box lower (3) and upper (3), radius; then per change its time and record
     integer, parameter :: head = 11
     real(dp), allocatable :: mine(:), send(:), recv(:), stale_there(:, :), first_time(:)
     integer(i8), allocatable :: log_keys(:, :), ghost_keys(:, :), owned_keys(:, :), run_keys(:, :)
@@ -709,7 +710,7 @@ contains
       nc = run_start(k + 1) - run_start(k)
       mine(at + 1) = transfer(self%bodies%gid(i), 1.0_dp)
       mine(at + 2) = real(par%rank, dp)
-      mine(at + 3) = merge(1.0_dp, 0.0_dp, i <= n0)
+      mine(at + 3) = real(merge(par%rank, owner(i), i <= n0), dp)
       mine(at + 4) = real(nc, dp)
       mine(at + 5:at + 10) = 0.0_dp
       if (i <= n0) then
@@ -757,7 +758,7 @@ contains
     at = 0
     do while (at + head <= size(recv))
       source = nint(recv(at + 2))
-      owners = recv(at + 3) > 0.5_dp
+      owners = nint(recv(at + 3)) == source
       nc = nint(recv(at + 4))
       glo = recv(at + 5:at + 7)
       ghi = recv(at + 8:at + 10)
@@ -779,7 +780,7 @@ contains
           other_radius(n_other) = recv(at + 11)
           other_stale(n_other) = stale
         end if
-      else
+      else if (nint(recv(at + 3)) == par%rank) then
         ! another rank's copy of a body of this one: the owner's log (empty if it made no change)
         mid = 0
         if (n_owned_runs > 0) mid = find_key(owned_keys, n_owned_runs, [transfer(recv(at + 1), 1_i8)])

@@ -215,6 +215,9 @@ gas_one = compare("gas", gas, (2, 3, 4), need_light=True)
 c.check(sum(v[0] for v in paths.values()) > 0 and sum(v[1] for v in paths.values()) > 0,
         f"cross-rank impacts were taken both ways: by both ranks in a window's run, and by one in a cross phase "
         f"with its ghosts sent back ((both, sent back) per run: {paths})")
+# (on 4 ranks a holder's log reaches neighbours that do not own the body, which must not
+# take it for a mismatch: then no window's logs ever agreed there)
+c.check(paths.get("gas_4", (0, 0))[0] > 0, f"gas on 4 ranks: cross-rank impacts taken by both ranks ({paths})")
 c.check(sum(v for k, v in repeated_windows.items() if k.startswith("gas_")) > 0,
         f"gas: some window was run again from its restored start ({repeated_windows})")
 # The same gas with skin = 0: a body migrates at the first window start after it left its
