@@ -3,7 +3,7 @@ module string_utils
   use kinds, only: dp, i8
   implicit none
   private
-  public :: str, lower, dirname, join_path, is_absolute_path, starts_with, ends_with, join_reals, name_index
+  public :: str, decimal_digits, lower, dirname, join_path, is_absolute_path, starts_with, ends_with, join_reals, name_index
 
   interface str
     module procedure str_int, str_int8, str_real, str_logical
@@ -24,24 +24,33 @@ contains
     integer(i8), intent(in) :: value
     character(len=:), allocatable :: text
     character(len=20) :: buffer    ! (19 digits of huge(0_i8), and the sign)
+    integer :: first
+    call decimal_digits(value, buffer, first)
+    text = buffer(first:)
+  end function str_int8
+
+  !> value's decimal text, as '(i0)' writes it, right-aligned in buffer from buffer(first:)
+  !> (20 characters hold any value): no heap string, for hot loops.
+  pure subroutine decimal_digits(value, buffer, first)
+    integer(i8), intent(in) :: value
+    character(len=*), intent(out) :: buffer
+    integer, intent(out) :: first
     integer(i8) :: v
-    integer :: k
-    k = len(buffer) + 1
     v = value
+    first = len(buffer) + 1
     ! (a negative value digit by digit as a negative: -huge(0_i8) - 1 has no positive; mod
     ! then takes the sign of v)
     do
-      k = k - 1
-      buffer(k:k) = achar(iachar('0') + abs(int(mod(v, 10_i8))))
+      first = first - 1
+      buffer(first:first) = achar(iachar('0') + abs(int(mod(v, 10_i8))))
       v = v/10_i8
       if (v == 0) exit
     end do
     if (value < 0) then
-      k = k - 1
-      buffer(k:k) = '-'
+      first = first - 1
+      buffer(first:first) = '-'
     end if
-    text = buffer(k:)
-  end function str_int8
+  end subroutine decimal_digits
 
   !> Shortest round-trip-ish form for messages: 'g0' keeps all significant digits.
   pure function str_real(value, fmt) result(text)

@@ -13,7 +13,7 @@ module namelist_source
   use, intrinsic :: iso_c_binding, only: c_char, c_ptr, c_double, c_int, c_null_char, c_null_ptr
   use kinds, only: dp, i8
   use error_status, only: error_t, ERR_INPUT, ERR_IO
-  use string_utils, only: str, lower, name_index
+  use string_utils, only: str, decimal_digits, lower, name_index
   use deck_sink, only: deck_sink_t
   implicit none
   private
@@ -1279,7 +1279,7 @@ contains
     character(kind=c_char) :: text(48)
     character(len=12) :: power
     integer :: k, n, first
-    call int_digits(e + 1, power, first)
+    call decimal_digits(int(e + 1, i8), power, first)
     text(1) = '0'
     text(2) = '.'
     n = 2
@@ -1312,40 +1312,12 @@ contains
     else if (exponent < 0 .and. exponent >= -4) then
       text = '0.'//repeat('0', -exponent - 1)//digits
     else if (len(digits) == 1) then
-      text = digits//'.0e'//int_text(exponent)
+      text = digits//'.0e'//str(exponent)
     else
-      text = digits(1:1)//'.'//digits(2:)//'e'//int_text(exponent)
+      text = digits(1:1)//'.'//digits(2:)//'e'//str(exponent)
     end if
   end function decimal_text
 
-  pure function int_text(i) result(text)
-    integer, intent(in) :: i
-    character(len=:), allocatable :: text
-    character(len=12) :: buffer
-    integer :: first
-    call int_digits(i, buffer, first)
-    text = buffer(first:)
-  end function int_text
-
-  !> i's decimal text right-aligned in buffer (at least 11 characters), from buffer(first:).
-  pure subroutine int_digits(i, buffer, first)
-    integer, intent(in) :: i
-    character(len=*), intent(out) :: buffer
-    integer, intent(out) :: first
-    integer :: m
-    m = abs(i)
-    first = len(buffer) + 1
-    do
-      first = first - 1
-      buffer(first:first) = achar(iachar('0') + mod(m, 10))
-      m = m/10
-      if (m == 0) exit
-    end do
-    if (i < 0) then
-      first = first - 1
-      buffer(first:first) = '-'
-    end if
-  end subroutine int_digits
 
   ! ---------------------------------------------------------------------------------------
   ! Lines of the effective deck
