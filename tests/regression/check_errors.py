@@ -156,6 +156,12 @@ expect_error([deck("nested.nml", good_run + "&body name = 'shell', shape = 'mesh
                    f"mesh_file = '{data}/meshes/spot.obj', scale = 4.0, mass = 1.0 /\n"
                    "&body name = 'pea', shape = 'box', size = 0.01, 0.01, 0.01, mass = 1.0, position = 0, 0, 0 /\n")],
              ["'shell'", "'pea'", "overlap"], "a box inside a mesh")
+# (a sphere deep inside: its surface is far from the mesh's, only the winding number of
+# its centre, inside the mesh's root box, finds it)
+expect_error([deck("nested_sphere.nml", good_run + "&body name = 'shell', shape = 'mesh', "
+                   f"mesh_file = '{data}/meshes/spot.obj', scale = 4.0, mass = 1.0 /\n"
+                   "&body name = 'pea', shape = 'sphere', radius = 0.01, mass = 1.0, position = 0, 0, 0 /\n")],
+             ["'shell'", "'pea'", "overlap"], "a sphere inside a mesh")
 ok_touching = deck("touching.nml", good_run + "&body name = 'a', shape = 'sphere', radius = 1.0, mass = 1.0 /\n"
                    "&body name = 'b', shape = 'sphere', radius = 1.0, mass = 1.0, position = 2.0, 0, 0 /\n")
 proc = subprocess.run([exe, ok_touching, "--output-dir", "touching_out"], capture_output=True, text=True, cwd=work)
