@@ -27,7 +27,9 @@ module event_loop
   use shape, only: shape_library_t, SHAPE_SPHERE
   use body_state, only: bodies_t
   use free_flight, only: free_flight_t
-  use collision_stage, only: collision_stage_t, turning_reach
+  use collision_stage, only: collision_stage_t, collision_stats_t, turning_reach
+  use impulse_solver, only: impulse_stats_t
+  use contact_solver, only: pgs_stats_t
   use pair_geometry, only: pair_gap, point_box_gap, convex_pair, convex_pair_bound
   use advancement_bound, only: closing_bound_t, time_to_close
   use time_of_contact, only: advancement_result_t
@@ -1656,7 +1658,11 @@ contains
     integer, allocatable :: group(:), contact_slots(:), reseed(:), changed(:)
     integer :: n_group, n_contact, n_reseed, n_changed, k, m
     logical :: any_change, repeat, incomplete, twice
-    type(collision_stage_t) :: counted   ! (the stage's counters only)
+    ! (the stage's counters before an impact the other rank counts)
+    type(collision_stats_t) :: stats_before
+    type(impulse_stats_t) :: impulses_before
+    type(pgs_stats_t) :: friction_before, residual_before
+    integer :: n_log_before
     integer(i8) :: changes_before
     self%stats%impacts = self%stats%impacts + 1
     call check_repeated_impact(self, bodies, stage, slot, t, err)
@@ -1701,11 +1707,11 @@ contains
         end if
         if (twice) then
           self%stats%impacts = self%stats%impacts - 1
-          counted%stats = stage%stats
-          counted%impulses = stage%impulses
-          counted%impact_friction = stage%impact_friction
-          counted%residual_pgs = stage%residual_pgs
-          counted%n_log = stage%n_log
+          stats_before = stage%stats
+          impulses_before = stage%impulses
+          friction_before = stage%impact_friction
+          residual_before = stage%residual_pgs
+          n_log_before = stage%n_log
           changes_before = self%stats%trajectory_changes
         else
           self%stats%cross_impacts = self%stats%cross_impacts + 1
@@ -1761,17 +1767,17 @@ contains
     end do
     if (twice) then
       ! (the work counters stay: this rank did the work)
-      counted%stats%pair_tests = stage%stats%pair_tests
-      counted%stats%advancement_iterations = stage%stats%advancement_iterations
-      counted%stats%capped = stage%stats%capped
-      counted%stats%plane_skips = stage%stats%plane_skips
-      counted%stats%convex_bounds = stage%stats%convex_bounds
-      counted%stats%min_separation = stage%stats%min_separation
-      stage%stats = counted%stats
-      stage%impulses = counted%impulses
-      stage%impact_friction = counted%impact_friction
-      stage%residual_pgs = counted%residual_pgs
-      stage%n_log = counted%n_log
+      stats_before%pair_tests = stage%stats%pair_tests
+      stats_before%advancement_iterations = stage%stats%advancement_iterations
+      stats_before%capped = stage%stats%capped
+      stats_before%plane_skips = stage%stats%plane_skips
+      stats_before%convex_bounds = stage%stats%convex_bounds
+      stats_before%min_separation = stage%stats%min_separation
+      stage%stats = stats_before
+      stage%impulses = impulses_before
+      stage%impact_friction = friction_before
+      stage%residual_pgs = residual_before
+      stage%n_log = n_log_before
       self%stats%trajectory_changes = changes_before
     end if
     if (any_change) then
