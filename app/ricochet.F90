@@ -3,6 +3,7 @@
 !> leave as one line on stderr and a non-zero exit code.
 program ricochet
   use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
+  use kinds, only: dp
   use error_status, only: error_t, ERR_INPUT, ERR_MESH, ERR_CHECKPOINT, ERR_IO
   use parallel_env, only: parallel_t
   use string_utils, only: join_path, str
@@ -23,8 +24,10 @@ program ricochet
   character(len=4096) :: line
   integer :: report, status
   logical :: memory_kept
+  real(dp) :: started_at   ! (a run's wall time counts from here: reading its deck included)
 
   call par%init()
+  started_at = par%wtime()
   ! (large arrays rebuilt at every window then cost no page faults: memory_policy)
   memory_kept = keep_freed_memory()
   call parse_command_line(mode, deck_path, restart_path, output_override, err)
@@ -69,7 +72,7 @@ program ricochet
       if (len(restart_path) > 0) write (output_unit, '(a)') '  restarting from '//restart_path
       flush (output_unit)   ! stdout is block-buffered when redirected: keep the log whole
     end if
-    call sim%init(par, deck, output_dir_of(deck, output_override), restart_path, err)
+    call sim%init(par, deck, output_dir_of(deck, output_override), restart_path, err, started_at)
     if (err%failed()) call fail(par, err)
     call sim%run(par, err)
     if (err%failed()) call fail(par, err)

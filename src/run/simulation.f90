@@ -39,6 +39,12 @@ module simulation
   use stop_request, only: stop_signal_received, signal_name
   implicit none
   private
+
+  !> The phases of a run's start-up timed on every rank (the summary prints the slowest
+  !> rank's): what does not shrink with more ranks shows here.
+  integer, parameter :: N_STARTUP_PHASES = 7
+  character(len=14), parameter :: STARTUP_PHASE_NAMES(N_STARTUP_PHASES) = [character(len=14) :: &
+    'deck', 'effective deck', 'bodies', 'checks', 'owners', 'first outputs', 'loop set-up']
   public :: simulation_t, choose_event_loop
 
   !> A step that would leave less than this fraction of dt_max before an output or
@@ -74,6 +80,8 @@ module simulation
     !> at 100,000 bodies)
     character(len=:), allocatable :: deck_lines(:)
     real(dp) :: startup_wall = 0.0_dp     !< wall time of init on this rank, this run [s]
+    !> the start-up's wall time on this rank by phase (STARTUP_PHASE_NAMES) [s]
+    real(dp) :: startup_phases(N_STARTUP_PHASES) = 0.0_dp
     real(dp) :: last_progress = 0.0_dp
     real(dp) :: last_dt = 0.0_dp
     real(dp) :: integration_wall = 0.0_dp     !< wall time spent moving bodies, this run [s]
@@ -275,13 +283,17 @@ module simulation
 
 contains
 
-  subroutine simulation_init(self, par, deck, output_dir, restart_path, err)
+  subroutine simulation_init(self, par, deck, output_dir, restart_path, err, started_at)
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(inout) :: par     !< (a decomposed run makes its Cartesian communicator)
     type(deck_t), intent(in) :: deck
     character(len=*), intent(in) :: output_dir     !< where frames, history, checkpoints go
     character(len=*), intent(in) :: restart_path   !< checkpoint to continue from, or ''
     type(error_t), intent(inout) :: err
+    !> par%wtime() when the run started, before its deck was read: the run's wall time and
+    !> start-up count from there (default: now)
+    real(dp), intent(in), optional :: started_at
+    real(dp) :: phase_start
     integer, allocatable :: shape_of_group(:)
     type(bodies_t) :: everyone
     type(material_table_t) :: materials
@@ -293,8 +305,12 @@ contains
     integer :: k
 
     self%deck = deck
-    self%wall_start = par%wtime()
+    phase_start = par%wtime()
+    self%wall_start = phase_start
+    if (present(started_at)) self%wall_start = started_at
+    call next_phase(1)
     call share_deck_lines(self, par)
+    call next_phase(2)
     self%last_progress = self%wall_start
     self%output_dir = output_dir
     allocate (self%group_names(deck%n_bodies))
@@ -312,6 +328,7 @@ contains
     ! "Domain decomposition in a run").
     call build_bodies(deck, self%shapes, shape_of_group, deck%run%gravity, 1_i8, self%n_total, everyone, err)
     if (err%failed()) return
+    call next_phase(3)
     if (len_trim(restart_path) > 0) then
       ! Everything about the checkpoint is checked before any output is touched.
       call restore_checkpoint(self, par, restart_path, everyone, meta, err)
@@ -325,6 +342,7 @@ contains
                                    min_separation_for(deck%contact, smallest_moving_extent(self%shapes, everyone)), &
                                    deck%contact%min_separation <= 0.0_dp, err)
     if (err%failed()) return
+    call next_phase(4)
     ! One grid box size and one auto minimum separation for every rank: from the smallest
     ! moving body of all (every rank holds every body here); per-body tables are sized
     ! for all of them, so that migration never outgrows them.
@@ -404,6 +422,7 @@ contains
     self%history_interval = deck%output%history_interval
     if (self%history_interval <= 0.0_dp) self%history_interval = self%output_interval/10.0_dp
     self%next_output = 0.0_dp
+    call next_phase(5)
 
     call self%frames%init(par, self%output_dir, err)
     if (err%failed()) return
@@ -426,12 +445,27 @@ contains
       call self%write_frame(par, err)
       if (err%failed()) return
     end if
+    call next_phase(6)
     if (self%local) call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, &
                                           deck%run%gravity, deck%integrator, self%time, deck%run%dt_max, &
                                           min(deck%run%t_end, self%next_checkpoint), err)
     self%previous_stop = self%time
     if (self%decomposed .and. .not. self%cross_windows) self%window_end = self%time + motion_window(self, par)
+    call next_phase(7)
     self%startup_wall = par%wtime() - self%wall_start
+  contains
+    !> Phase k ends now (the deck's from started_at to init's entry).
+    subroutine next_phase(k)
+      integer, intent(in) :: k
+      real(dp) :: now
+      now = par%wtime()
+      if (k == 1) then
+        self%startup_phases(1) = now - self%wall_start
+      else
+        self%startup_phases(k) = now - phase_start
+      end if
+      phase_start = now
+    end subroutine next_phase
   end subroutine simulation_init
 
   !> This rank's share of the effective deck's lines (self%deck_lines): a block of the body

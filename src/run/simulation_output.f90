@@ -150,7 +150,9 @@ contains
     real(dp) :: wall, per_step, min_sep, load(3, 3), startup, window_wall, window_loop_wall
     integer(i8) :: events, contacts, pair_tests, migrated, bytes, messages, window_certificates, window_rebuilds
     integer(i8) :: convex_bounds, cross_count(6), deferred, cross_impacts
-    real(dp) :: cross_wall(2), rate
+    real(dp) :: cross_wall(2), rate, phases(N_STARTUP_PHASES)
+    character(len=:), allocatable :: line
+    integer :: k
     wall = par%wtime() - self%wall_start
     ! The load of each rank (min, mean, max over ranks): bodies owned at the end, events, busy
     ! time (everything but waiting in collectives is not split out yet: the run's wall time).
@@ -181,14 +183,21 @@ contains
     convex_bounds = par%sum(self%collisions%stats%convex_bounds)
     min_sep = par%min(self%collisions%stats%min_separation)
     startup = par%max(self%startup_wall)
+    do k = 1, N_STARTUP_PHASES
+      phases(k) = par%max(self%startup_phases(k))
+    end do
     if (.not. par%is_root()) return
     per_step = wall/max(real(self%step - self%first_step, dp), 1.0_dp)
     write (*, '(a)') 'ricochet: run finished at t = '//str(self%time, '(g0.6)')//' s'
     write (*, '(a,es10.3,a,i0,a,i0,a)') '  wall time            ', wall, ' s on ', par%n_ranks, ' rank(s), ', &
       self%step - self%first_step, ' steps in this run'
     ! (what the domain decomposition leaves O(all bodies) per rank sits here: docs/architecture.md)
-    write (*, '(a,es10.3,a)') '  start-up             ', startup, ' s (slowest rank: bodies, start-up checks, '// &
-      'owners, first outputs, the event loop''s set-up)'
+    line = '  start-up             '//str(startup, '(es10.3)')//' s (slowest rank), of which'
+    do k = 1, N_STARTUP_PHASES
+      line = line//' '//trim(STARTUP_PHASE_NAMES(k))//' '//str(phases(k), '(es9.3)')// &
+             trim(merge(', ', ' s', k < N_STARTUP_PHASES))
+    end do
+    write (*, '(a)') line
     write (*, '(a,es10.3,a,es10.3,a)') '  time per step        ', per_step, ' s (', &
       per_step/max(real(self%n_total, dp), 1.0_dp), ' s per body)'
     ! (no time measured, no rate: 0)
