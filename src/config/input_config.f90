@@ -28,6 +28,10 @@ module input_config
     !> [m] how far a body may leave its brick before it migrates to its new owner (-1: auto,
     !> one box of the collision grid; 0: at every brick it leaves)
     real(dp) :: skin = -1.0_dp
+    !> [-] events per rank a cross-rank window aims at: its length is this many times the
+    !> ranks over the run's event rate so far (-1: auto, 150; docs/architecture.md, "Window
+    !> length")
+    real(dp) :: window_events = -1.0_dp
   end type parallel_config_t
 
   type :: run_config_t

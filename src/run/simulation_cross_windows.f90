@@ -45,12 +45,16 @@ submodule (simulation) simulation_cross_windows
   use halo_exchange, only: exchange_halo
   use body_packing, only: pack_bodies, unpack_blocks
   use sorting, only: sort_index_keys, find_key
+  use deck_reader, only: DECK_AUTO
   implicit none
 
   integer, parameter :: halo_rings = 2
   real(dp), parameter :: never = 1.0e30_dp
   !> windows in a row that end at the time they started before the run stops with an error
   integer, parameter :: max_stuck_windows = 1000
+  !> &parallel window_events auto: the fastest of 66, 133 and 330 events per rank on the
+  !> 100,000-sphere gas over 0.25 s on two ranks (docs/benchmarks.md)
+  real(dp), parameter :: auto_window_events = 150.0_dp
 
 contains
 
@@ -74,7 +78,9 @@ contains
   end procedure cross_box_size
 
   module procedure run_cross_windows
-    real(dp) :: t_end, t_output, t_hard, t_cross, t_late, t_v, clock
+    real(dp) :: t_end, t_output, t_hard, t_cross, t_late, t_v, clock, t_window
+    real(dp) :: window_length, window_events, run_start_time
+    integer(i8) :: run_start_step
     type(collision_stage_t) :: saved_stage   ! (its counters and sleeping state only)
     type(event_loop_t) :: saved_loop
     integer, allocatable :: owner(:)
@@ -88,6 +94,17 @@ contains
     integer(i8) :: events_before
     logical :: checkpointed, exclusive, to_known
     t_end = self%deck%run%t_end
+    ! Window length (docs/architecture.md, "Window length"): a window repeated to an earlier
+    ! time costs its whole speculative run and the repetition, so long windows lose when
+    ! cross-rank events come often, and every window costs a start and a save. Windows aim
+    ! at window_events events per rank, from the run's event rate so far (global counts
+    ! and simulated times: the same on every rank, and the same windows in every run);
+    ! the first is a hundredth of what is left, and one at most twice the one before.
+    window_events = self%deck%parallel%window_events
+    if (window_events == DECK_AUTO) window_events = auto_window_events
+    run_start_time = self%time
+    run_start_step = self%step
+    window_length = (t_end - self%time)/100.0_dp
     stuck = 0
     need_full = .true.
     allocate (dropped(0))
@@ -95,6 +112,8 @@ contains
     self%events%stats%impacts = self%collisions%stats%events
     do while (self%time < t_end)
       t_output = min(t_end, self%next_output, self%next_history, self%next_checkpoint)
+      t_window = min(t_output, self%time + window_length)
+      if (t_window <= self%time) t_window = t_output
       t_hard = min(t_end, self%next_checkpoint)
       clock = par%wtime()
       if (need_full) then
@@ -122,9 +141,9 @@ contains
       ! the cross phase follows (the events at that time, the crossing's halo stop making
       ! the next start a full one) with no repetition
       t_known = par%min(self%events%queued_halo_time(self%bodies, self%propagator))
-      to_known = t_known <= t_output
+      to_known = t_known <= t_window
       self%events%cross_mode = CROSS_SPECULATE
-      call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, min(t_known, t_output), &
+      call self%events%run_until(self%collisions, self%bodies, self%shapes, self%propagator, min(t_known, t_window), &
                                  t_hard, err, exclusive=to_known)
       if (par%any(err%failed())) then
         if (err%ok()) call err%set(ERR_INTERNAL, 'a cross-rank window failed on another rank')
@@ -134,7 +153,7 @@ contains
       t_late = never
       if (self%events%stop_kind == STOP_CROSS) t_cross = self%events%stop_time
       if (self%events%stop_kind == STOP_HALO) t_late = self%events%stop_time
-      call self%events%close_paths(self%bodies, self%propagator, min(t_output, self%events%stop_time))
+      call self%events%close_paths(self%bodies, self%propagator, min(t_window, self%events%stop_time))
       call exchange_changes(self, par, owner, changed_at, t_both, t_mismatch, err)
       if (err%failed()) return
       t_late = min(t_late, t_both)
@@ -155,9 +174,9 @@ contains
       ! (every rank's run reached t_known with nothing before it: the known impact's time is
       ! a cross time, and nobody's run went past it)
       if (to_known) t_cross = min(t_cross, t_known)
-      if (t_cross > t_output .and. t_late >= t_output) then
+      if (t_cross > t_window .and. t_late >= t_window) then
         ! the window stands: every event up to the output time is the one-rank run's
-        self%time = t_output
+        self%time = t_window
       else
         clock = par%wtime()
         exclusive = t_cross <= t_late
@@ -218,6 +237,12 @@ contains
       ! (events of every rank: the same count on any number of ranks)
       self%step = self%step + par%sum(self%events%stats%impacts - events_before)
       self%collisions%stats%events = self%events%stats%impacts
+      if (self%step > run_start_step .and. self%time > run_start_time) then
+        window_length = min(2.0_dp*window_length, window_events*real(par%n_ranks, dp)* &
+                            (self%time - run_start_time)/real(self%step - run_start_step, dp))
+      else
+        window_length = 2.0_dp*window_length
+      end if
       if (self%time < t_output) cycle
       ! the outputs at t_output (of owned bodies: the writers and sums skip the ghosts)
       self%last_dt = self%time - self%previous_stop

@@ -28,6 +28,9 @@ counters):
 - the billiards break (input/validation/billiards_break.nml): groups of touching balls
   split between ranks; 2 ranks, and 4 with `&parallel skin = 0` (the skin's larger bricks
   do not fit four ranks on this small table).
+- the window length (`&parallel window_events`): the 200-sphere gas with windows of about
+  one event per rank and with windows up to the output times gives the one-rank files, and
+  fewer events a window make more windows.
 - the migration skin (`&parallel skin`, docs/architecture.md "Migration at full starts
   only, past a skin"): the 200-sphere gas and the three review scenes also run with skin =
   0 (migration at every brick a body leaves, the rule before the skin); both give the
@@ -129,6 +132,8 @@ def compare(name, path, ranks_list, need_cross=True, need_light=False):
     for ranks in ranks_list:
         out = os.path.join(work, f"{name}_{ranks}")
         proc = run(ranks, path, out)
+        with open(out + ".log", "w") as f:
+            f.write(proc.stdout)
         counts = cross_counts(proc.stdout)
         c.check(counts is not None, f"{name} on {ranks} ranks: cross-rank windows ({proc.stdout[-400:]})")
         if counts:
@@ -233,6 +238,23 @@ for name, path in (("skin", gas), ("skin0", gas_skin0)):
     full_starts[name] = counts[0] - counts[4] if counts else None
 c.check(None not in full_starts.values() and full_starts["skin"] < full_starts["skin0"],
         f"gas on 2 ranks: the default skin needs fewer full window starts than skin = 0 ({full_starts})")
+# The window length (&parallel window_events, docs/architecture.md "Window length"): windows
+# of about one event per rank, and windows up to the output times (the rule before it), cut
+# the run elsewhere and must give the one-rank files; fewer events a window, more windows.
+window_counts = {}
+for name, aim in (("short", "1.0"), ("long", "1.0e9")):
+    path = deck(f"gas_windows_{name}.nml", "\n".join(lines) + f"\n&parallel window_events = {aim} /\n")
+    compare(f"gas_windows_{name}", path, (2,))
+    with open(os.path.join(work, f"gas_windows_{name}_2.log")) as f:
+        counts = cross_counts(f.read())
+    window_counts[name] = counts[0] if counts else None
+with open(os.path.join(work, "gas_2.log")) as f:
+    counts = cross_counts(f.read())
+window_counts["default"] = counts[0] if counts else None
+# (the default aims at more events than this small gas has between its output times)
+c.check(None not in window_counts.values() and
+        window_counts["short"] > window_counts["default"] >= window_counts["long"],
+        f"gas on 2 ranks: fewer events per window, more windows (windows per window_events: {window_counts})")
 # restarts across rank counts: 4 -> 2 and 1 -> 4, from the checkpoint at t = 0.5 s
 for written, goes_on in ((4, 2), (1, 4)):
     out = os.path.join(work, f"gas_restart_{written}_{goes_on}")

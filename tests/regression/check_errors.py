@@ -196,6 +196,18 @@ expect_error([deck("skin_negative.nml", good_run + "&parallel skin = -0.5 /\n" +
              ["skin_negative.nml:2", "&parallel", "skin", ">= 0 m, or -1 for auto"], "&parallel skin negative")
 expect_error([deck("skin_nan.nml", good_run + "&parallel skin = NaN /\n" + ball)],
              ["skin_nan.nml:2", "&parallel", "skin"], "&parallel skin not finite")
+# &parallel window_events [-]: -1 (auto) by default, read and written back, below 1 or NaN refused
+c.check(re.search(r"^\s*window_events\s*= -1\.0\s", proc.stdout, re.M) is not None,
+        "--check prints &parallel window_events (default -1: auto)")
+aim = deck("window_events.nml", good_run + "&parallel window_events = 400 /\n" + ball)
+proc_aim = subprocess.run([exe, "--check", aim], capture_output=True, text=True, cwd=work)
+c.check(re.search(r"^\s*window_events\s*= 400\.0\s", proc_aim.stdout, re.M) is not None,
+        "&parallel window_events = 400 is read and written back")
+expect_error([deck("window_events_small.nml", good_run + "&parallel window_events = 0.5 /\n" + ball)],
+             ["window_events_small.nml:2", "&parallel", "window_events", ">= 1 event, or -1 for auto"],
+             "&parallel window_events below one event")
+expect_error([deck("window_events_nan.nml", good_run + "&parallel window_events = NaN /\n" + ball)],
+             ["window_events_nan.nml:2", "&parallel", "window_events"], "&parallel window_events not finite")
 effective = deck("effective.nml", proc.stdout)
 proc = subprocess.run([exe, "--check", effective], capture_output=True, text=True, cwd=work)
 c.check(proc.returncode == 0, f"the effective deck is itself a valid deck: {proc.stderr.strip()}")

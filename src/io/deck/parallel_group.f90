@@ -15,8 +15,9 @@ module parallel_group
   private
   public :: read_parallel_group, write_parallel_group
 
-  type(var_spec_t), parameter :: parallel_vars(2) = [var_spec_t('dims', V_INTEGER, 3, 0), &
-                                                      var_spec_t('skin', V_REAL, 1, 0)]
+  type(var_spec_t), parameter :: parallel_vars(3) = [var_spec_t('dims', V_INTEGER, 3, 0), &
+                                                      var_spec_t('skin', V_REAL, 1, 0), &
+                                                      var_spec_t('window_events', V_REAL, 1, 0)]
 
 contains
 
@@ -27,9 +28,9 @@ contains
     type(error_t), intent(inout) :: err
     type(group_input_t) :: g
     integer :: dims(3), ios
-    real(dp) :: skin
+    real(dp) :: skin, window_events
     character(len=512) :: msg
-    namelist /parallel/ dims, skin
+    namelist /parallel/ dims, skin, window_events
 
     call open_group(src, group, parallel_vars, '&parallel', g)
     call prepare_group(g, err)
@@ -37,6 +38,7 @@ contains
     ! Defaults reset before the read: config is intent(out), so it holds the type's defaults.
     dims = config%dims
     skin = config%skin
+    window_events = config%window_events
     msg = ''
     read (g%text, nml=parallel, iostat=ios, iomsg=msg)
     if (ios /= 0) then
@@ -45,7 +47,14 @@ contains
     end if
     config%dims = dims
     config%skin = skin
+    config%window_events = window_events
     call require_finite(g, err, 'skin', [skin])
+    if (err%failed()) return
+    call require_finite(g, err, 'window_events', [window_events])
+    if (err%failed()) return
+    if (window_events /= DECK_AUTO .and. .not. window_events >= 1.0_dp) &
+      call fail(g, err, 'window_events', 'window_events must be >= 1 event, or -1 for auto, got '// &
+                real_text(window_events))
     if (err%failed()) return
     if (skin /= DECK_AUTO .and. skin < 0.0_dp) call fail(g, err, 'skin', 'skin must be >= 0 m, or -1 for auto, got '// &
                                                           real_text(skin))
@@ -64,6 +73,9 @@ contains
     note = '[m] how far a body may leave its brick before it migrates'
     if (config%skin == DECK_AUTO) note = '[m] -1: auto, one box of the collision grid'
     call put_real(out, 'skin', [config%skin], note)
+    note = '[-] events per rank a cross-rank window aims at'
+    if (config%window_events == DECK_AUTO) note = '[-] -1: auto, 150 events per rank a cross-rank window'
+    call put_real(out, 'window_events', [config%window_events], note)
     call out%put('/')
   end subroutine write_parallel_group
 
