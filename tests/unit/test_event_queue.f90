@@ -538,6 +538,33 @@ contains
     slot = s%add(n + 1, 1, gid(n + 1), gid(1))
     call check(s%check() .and. s%degree(n + 1) == 1 .and. s%find(1, n + 1) == slot, &
                'store, bodies only appended: a pair of a new body added')
+    ! the queue of box crossings, handles only appended (its fast path keeps the heap as it
+    ! is): the same entries in the same order as a queue that never was renumbered, and room
+    ! for the new handles beyond the old capacity
+    block
+      type(event_queue_t) :: q, ref
+      integer :: h, h_ref
+      real(dp) :: t, t_ref
+      call q%init(n)
+      call ref%init(n + n_more)
+      do i = 1, n
+        if (rng%uniform() < 0.2_dp) cycle     ! (some bodies have no crossing queued)
+        t = real(int(rng%uniform()*4.0_dp), dp)   ! (equal times: the ties decide)
+        call q%set(i, t, gid(i), 0_i8)
+        call ref%set(i, t, gid(i), 0_i8)
+      end do
+      call q%remap_handles(identity, n + n_more)
+      ok = q%check_heap() .and. q%n == ref%n .and. all(q%heap(1:q%n) == ref%heap(1:ref%n)) .and. &
+           size(q%pos) >= n + n_more
+      call q%set(n + n_more, -1.0_dp, gid(n + n_more), 0_i8)
+      call ref%set(n + n_more, -1.0_dp, gid(n + n_more), 0_i8)
+      do while (.not. ref%empty())
+        call q%pop(h, t)
+        call ref%pop(h_ref, t_ref)
+        if (h /= h_ref .or. t /= t_ref) ok = .false.
+      end do
+      call check(ok .and. q%empty(), 'queue, handles only appended: the heap as it was, room and order for the new ones')
+    end block
   end subroutine appended_only
 
   !> Up to `tries` random pairs of bodies 1..size(gid) with distinct certificates (gap and
