@@ -20,6 +20,7 @@ loops' wall times (measured in benchmarks, not asserted here).
 Usage: check_local_events.py EXE WORKDIR"""
 import math
 import os
+import re
 import subprocess
 import sys
 
@@ -71,6 +72,29 @@ def run(deck, out):
     return proc
 
 
+def check_startup_line(proc, what):
+    """The summary's start-up line: its phases in order, none negative, their sum within
+    the start-up time (the slowest rank's; one rank here, so the same rank: the phases
+    split it without a gap), which lies within the wall time (that counts from the
+    program's start, reading the deck included)."""
+    names = ["deck", "effective deck", "bodies", "checks", "owners", "first outputs", "loop set-up"]
+    line = next((l for l in proc.stdout.splitlines() if l.strip().startswith("start-up")), "")
+    m = re.match(r"\s*start-up\s+(\S+) s \(slowest rank\), of which (.*) s$", line)
+    c.check(m is not None, f"{what}: a start-up line with its phases ({line!r})")
+    if not m:
+        return
+    parts = [p.strip() for p in m.group(2).split(",")]
+    got = [p.rsplit(" ", 1)[0] for p in parts]
+    times = [float(p.rsplit(" ", 1)[1]) for p in parts]
+    startup = float(m.group(1))
+    c.check(got == names, f"{what}: the start-up's phases in order ({got})")
+    # (each printed to 4 significant digits, '(es9.3)': a relative rounding of 5e-4 each)
+    tolerance = 5e-4 * (sum(times) + startup) + 1e-9
+    c.check(min(times) >= 0.0 and abs(sum(times) - startup) <= tolerance,
+            f"{what}: the phases add up to the start-up ({times}, sum {sum(times):.4g} s, start-up {startup:.4g} s)")
+    c.check(startup <= wall_time(proc), f"{what}: the start-up within the wall time ({startup} s, {wall_time(proc)} s)")
+
+
 def wall_time(proc):
     for line in proc.stdout.splitlines():
         if line.strip().startswith("wall time"):
@@ -86,6 +110,7 @@ for shape, seed, t_end in (("sphere", 11, 0.5), ("cube", 12, 0.3)):
         out = os.path.join(work, f"{shape}_{events}")
         proc = run(deck, out)
         check_separation_floor(c, proc)
+        check_startup_line(proc, f"{shape} gas, {events} loop")
         log = np.loadtxt(os.path.join(out, "events.csv"), delimiter=",", skiprows=1, ndmin=2)
         runs[events] = (log, checkpoint(os.path.join(out, "checkpoint_final.h5"))[1], wall_time(proc))
     (lg, sg, wg), (ll, sl, wl) = runs["global"], runs["local"]
