@@ -13,7 +13,7 @@ module simulation
   use error_status, only: error_t, ERR_INPUT, ERR_NUMERIC, ERR_CHECKPOINT, ERR_INTERNAL
   use string_utils, only: str, join_path
   use parallel_env, only: parallel_t
-  use input_config, only: deck_t, EVENTS_LOCAL, EVENTS_GLOBAL, ROTATION_EXACT
+  use input_config, only: deck_t, body_spec_t, EVENTS_LOCAL, EVENTS_GLOBAL, ROTATION_EXACT
   use shape, only: shape_library_t
   use body_state, only: bodies_t, copy_row
   use body_builder, only: build_shapes, build_bodies, count_bodies, build_materials
@@ -283,10 +283,13 @@ module simulation
 
 contains
 
-  subroutine simulation_init(self, par, deck, output_dir, restart_path, err, started_at)
+  subroutine simulation_init(self, par, deck_given, output_dir, restart_path, err, started_at)
     class(simulation_t), intent(inout) :: self
     type(parallel_t), intent(inout) :: par     !< (a decomposed run makes its Cartesian communicator)
-    type(deck_t), intent(in) :: deck
+    !> the run's deck; its &body specs move into the simulation (deck_given%bodies is not
+    !> allocated on return): a copy was 141 MB of fresh pages on every rank for 100,000
+    !> bodies (1,416 bytes a spec, most of them its mesh path)
+    type(deck_t), intent(inout) :: deck_given
     character(len=*), intent(in) :: output_dir     !< where frames, history, checkpoints go
     character(len=*), intent(in) :: restart_path   !< checkpoint to continue from, or ''
     type(error_t), intent(inout) :: err
@@ -303,156 +306,161 @@ contains
     real(dp) :: h_brick
     character(len=:), allocatable :: why
     integer :: k
+    type(body_spec_t), allocatable :: specs(:)
 
-    self%deck = deck
-    phase_start = par%wtime()
-    self%wall_start = phase_start
-    if (present(started_at)) self%wall_start = started_at
-    call next_phase(1)
-    call share_deck_lines(self, par)
-    call next_phase(2)
-    self%last_progress = self%wall_start
-    self%output_dir = output_dir
-    allocate (self%group_names(deck%n_bodies))
-    do k = 1, deck%n_bodies
-      self%group_names(k) = deck%bodies(k)%name
-    end do
+    call move_alloc(deck_given%bodies, specs)
+    self%deck = deck_given
+    call move_alloc(specs, self%deck%bodies)
+    associate (deck => self%deck)
+      phase_start = par%wtime()
+      self%wall_start = phase_start
+      if (present(started_at)) self%wall_start = started_at
+      call next_phase(1)
+      call share_deck_lines(self, par)
+      call next_phase(2)
+      self%last_progress = self%wall_start
+      self%output_dir = output_dir
+      allocate (self%group_names(deck%n_bodies))
+      do k = 1, deck%n_bodies
+        self%group_names(k) = deck%bodies(k)%name
+      end do
 
-    call build_shapes(deck, self%shapes, shape_of_group, err)
-    if (err%failed()) return
-    self%n_total = count_bodies(deck)
-    ! Every rank builds every body (ids in deck order): the start-up checks, a restart's
-    ! comparison and the choice of owners need them all. That is O(all bodies) per rank but
-    ! cheap (0.03 s for 93,312 bodies); the costly parts, the overlap test's exact pair tests
-    ! and contact_possible's sweep, are shared among the ranks (docs/architecture.md,
-    ! "Domain decomposition in a run").
-    call build_bodies(deck, self%shapes, shape_of_group, deck%run%gravity, 1_i8, self%n_total, everyone, err)
-    if (err%failed()) return
-    call next_phase(3)
-    if (len_trim(restart_path) > 0) then
-      ! Everything about the checkpoint is checked before any output is touched.
-      call restore_checkpoint(self, par, restart_path, everyone, meta, err)
+      call build_shapes(deck, self%shapes, shape_of_group, err)
       if (err%failed()) return
-    else
-      call check_initial_overlaps(deck, self%shapes, everyone, err, par=par)
+      self%n_total = count_bodies(deck)
+      ! Every rank builds every body (ids in deck order): the start-up checks, a restart's
+      ! comparison and the choice of owners need them all. That is O(all bodies) per rank but
+      ! cheap (0.03 s for 93,312 bodies); the costly parts, the overlap test's exact pair tests
+      ! and contact_possible's sweep, are shared among the ranks (docs/architecture.md,
+      ! "Domain decomposition in a run").
+      call build_bodies(deck, self%shapes, shape_of_group, deck%run%gravity, 1_i8, self%n_total, everyone, err)
       if (err%failed()) return
-    end if
-    ! (at a restart too: the bodies may have gone far from the origin since the start)
-    call check_position_resolution(deck, self%shapes, everyone, &
-                                   min_separation_for(deck%contact, smallest_moving_extent(self%shapes, everyone)), &
-                                   deck%contact%min_separation <= 0.0_dp, err)
-    if (err%failed()) return
-    call next_phase(4)
-    ! One grid box size and one auto minimum separation for every rank: from the smallest
-    ! moving body of all (every rank holds every body here); per-body tables are sized
-    ! for all of them, so that migration never outgrows them.
-    call build_materials(deck, materials)
-    call self%collisions%init(deck%contact, deck%run, materials, deck%path, self%shapes, everyone, err)
-    if (err%failed()) return
-    ! Owners: the bricks of a domain decomposition when no two bodies can interact before
-    ! t_end, otherwise every body on rank 0 (contacts across ranks are not built yet).
-    contacts = .false.
-    if (par%n_ranks > 1) then
-      contacts = contact_possible(par, self%shapes, everyone, deck%run%t_end - self%time, deck%run%gravity, pair, &
-                                  2.0_dp*(self%collisions%target + self%collisions%tolerance + &
-                                          self%collisions%contact_tolerance))
-      call choose_event_loop(deck, local, err)
-      if (err%failed()) return
-      tried = contacts .and. local .and. cross_contacts_built(deck, self%collisions)
-      if (tried) then
-        ! bodies of different bricks may meet: exact windows with ghosts (no contact passes)
-        ! (the box first: cross_box_size keeps R_max and the skin in self)
-        h_brick = cross_box_size(self, everyone)
-        call decompose(self, par, everyone, err, h_brick)
+      call next_phase(3)
+      if (len_trim(restart_path) > 0) then
+        ! Everything about the checkpoint is checked before any output is touched.
+        call restore_checkpoint(self, par, restart_path, everyone, meta, err)
         if (err%failed()) return
-        self%cross_windows = self%decomposed
-        if (self%decomposed) then
-          contacts = .false.
-          call take_statics(everyone, self%statics)
-          if (par%is_root()) then
-            write (*, '(a)') '  bodies of different bricks may meet (bodies '//str(pair(1))//' and '//str(pair(2))// &
-              ' may touch): cross-rank windows with two rings of ghosts, migration skin '// &
-              trim(adjustl(str(self%cross_skin, '(es10.3)')))//' m'
-            flush (output_unit)
+      else
+        call check_initial_overlaps(deck, self%shapes, everyone, err, par=par)
+        if (err%failed()) return
+      end if
+      ! (at a restart too: the bodies may have gone far from the origin since the start)
+      call check_position_resolution(deck, self%shapes, everyone, &
+                                     min_separation_for(deck%contact, smallest_moving_extent(self%shapes, everyone)), &
+                                     deck%contact%min_separation <= 0.0_dp, err)
+      if (err%failed()) return
+      call next_phase(4)
+      ! One grid box size and one auto minimum separation for every rank: from the smallest
+      ! moving body of all (every rank holds every body here); per-body tables are sized
+      ! for all of them, so that migration never outgrows them.
+      call build_materials(deck, materials)
+      call self%collisions%init(deck%contact, deck%run, materials, deck%path, self%shapes, everyone, err)
+      if (err%failed()) return
+      ! Owners: the bricks of a domain decomposition when no two bodies can interact before
+      ! t_end, otherwise every body on rank 0 (contacts across ranks are not built yet).
+      contacts = .false.
+      if (par%n_ranks > 1) then
+        contacts = contact_possible(par, self%shapes, everyone, deck%run%t_end - self%time, deck%run%gravity, pair, &
+                                    2.0_dp*(self%collisions%target + self%collisions%tolerance + &
+                                            self%collisions%contact_tolerance))
+        call choose_event_loop(deck, local, err)
+        if (err%failed()) return
+        tried = contacts .and. local .and. cross_contacts_built(deck, self%collisions)
+        if (tried) then
+          ! bodies of different bricks may meet: exact windows with ghosts (no contact passes)
+          ! (the box first: cross_box_size keeps R_max and the skin in self)
+          h_brick = cross_box_size(self, everyone)
+          call decompose(self, par, everyone, err, h_brick)
+          if (err%failed()) return
+          self%cross_windows = self%decomposed
+          if (self%decomposed) then
+            contacts = .false.
+            call take_statics(everyone, self%statics)
+            if (par%is_root()) then
+              write (*, '(a)') '  bodies of different bricks may meet (bodies '//str(pair(1))//' and '//str(pair(2))// &
+                ' may touch): cross-rank windows with two rings of ghosts, migration skin '// &
+                trim(adjustl(str(self%cross_skin, '(es10.3)')))//' m'
+              flush (output_unit)
+            end if
           end if
         end if
-      end if
-      if (contacts .and. par%is_root()) then
-        if (tried) then
-          why = 'the scene is too small for the bricks of cross-rank windows (above)'
-        else
-          why = 'contacts between bodies of different ranks are built only for scenes without contact '// &
-                'passes (no gravity, every restitution above 0, events = ''local'')'
+        if (contacts .and. par%is_root()) then
+          if (tried) then
+            why = 'the scene is too small for the bricks of cross-rank windows (above)'
+          else
+            why = 'contacts between bodies of different ranks are built only for scenes without contact '// &
+                  'passes (no gravity, every restitution above 0, events = ''local'')'
+          end if
+          write (*, '(a)') 'ricochet: notice: bodies '//str(pair(1))//' and '//str(pair(2))//' may touch before '// &
+            't_end, and '//why//': every body runs on rank 0, the other '//str(par%n_ranks - 1)//' rank(s) wait'
+          flush (output_unit)
         end if
-        write (*, '(a)') 'ricochet: notice: bodies '//str(pair(1))//' and '//str(pair(2))//' may touch before '// &
-          't_end, and '//why//': every body runs on rank 0, the other '//str(par%n_ranks - 1)//' rank(s) wait'
-        flush (output_unit)
+        if (.not. contacts .and. .not. self%decomposed) call decompose(self, par, everyone, err)
+        if (err%failed()) return
       end if
-      if (.not. contacts .and. .not. self%decomposed) call decompose(self, par, everyone, err)
-      if (err%failed()) return
-    end if
-    if (self%decomposed) then
-      call take_brick(everyone, self%dom, self%bodies)
-      self%in_own_bricks = .true.
-    else
-      ! every body on rank 0 (the only rank of a serial run)
-      first = 1
-      last = merge(self%n_total, 0_i8, par%is_root())
-      call take_rows(everyone, first, last, self%bodies)
-    end if
-    call everyone%free()
-    if (self%cross_windows) then
-      ! (room for the first window's ghosts: a quarter of the owned rows, 12% for the
-      ! 100,000-sphere gas on two ranks; more are taken by a reallocation)
-      call self%propagator%init(self%bodies%n_owned, deck%integrator, &
-                                capacity=self%bodies%n_owned + self%bodies%n_owned/4)
-    else
-      call self%propagator%init(self%bodies%n_owned, deck%integrator)
-    end if
+      if (self%decomposed) then
+        call take_brick(everyone, self%dom, self%bodies)
+        self%in_own_bricks = .true.
+      else
+        ! every body on rank 0 (the only rank of a serial run)
+        first = 1
+        last = merge(self%n_total, 0_i8, par%is_root())
+        call take_rows(everyone, first, last, self%bodies)
+      end if
+      call everyone%free()
+      if (self%cross_windows) then
+        ! (room for the first window's ghosts: a quarter of the owned rows, 12% for the
+        ! 100,000-sphere gas on two ranks; more are taken by a reallocation)
+        call self%propagator%init(self%bodies%n_owned, deck%integrator, &
+                                  capacity=self%bodies%n_owned + self%bodies%n_owned/4)
+      else
+        call self%propagator%init(self%bodies%n_owned, deck%integrator)
+      end if
 
-    self%collisions%log_events = deck%output%event_log
-    call choose_event_loop(deck, self%local, err)
-    if (err%failed()) return
-    if (deck%output%checkpoint_interval > 0.0_dp) then
-      self%next_checkpoint = deck%output%checkpoint_interval
-    end if
-    ! Auto intervals (docs/input.md): 100 frames per run, 10 history rows per frame.
-    self%output_interval = deck%output%interval
-    if (self%output_interval <= 0.0_dp) self%output_interval = deck%run%t_end/100.0_dp
-    self%history_interval = deck%output%history_interval
-    if (self%history_interval <= 0.0_dp) self%history_interval = self%output_interval/10.0_dp
-    self%next_output = 0.0_dp
-    call next_phase(5)
-
-    call self%frames%init(par, self%output_dir, err)
-    if (err%failed()) return
-
-    if (len_trim(restart_path) > 0) then
-      call self%restart_from(meta, par%is_root())
-    else
-      call compute_totals(par, self%bodies, deck%run%gravity, self%initial)
-    end if
-    ! A fresh run starts a new history; a restart keeps the rows up to its time.
-    call self%history%init(par, join_path(self%output_dir, 'history.csv'), &
-                           merge(self%time, history_fresh_start, self%restarted), err)
-    if (err%failed()) return
-    ! History rows fall at the first step end at or after each multiple of the interval; the
-    ! next one follows from the time alone, so a restart needs nothing more.
-    self%next_history = (aint(self%time/self%history_interval) + 1.0_dp)*self%history_interval
-    if (.not. self%restarted) then
-      call self%record_history(par, err)
+      self%collisions%log_events = deck%output%event_log
+      call choose_event_loop(deck, self%local, err)
       if (err%failed()) return
-      call self%write_frame(par, err)
+      if (deck%output%checkpoint_interval > 0.0_dp) then
+        self%next_checkpoint = deck%output%checkpoint_interval
+      end if
+      ! Auto intervals (docs/input.md): 100 frames per run, 10 history rows per frame.
+      self%output_interval = deck%output%interval
+      if (self%output_interval <= 0.0_dp) self%output_interval = deck%run%t_end/100.0_dp
+      self%history_interval = deck%output%history_interval
+      if (self%history_interval <= 0.0_dp) self%history_interval = self%output_interval/10.0_dp
+      self%next_output = 0.0_dp
+      call next_phase(5)
+
+      call self%frames%init(par, self%output_dir, err)
       if (err%failed()) return
-    end if
-    call next_phase(6)
-    if (self%local) call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, &
-                                          deck%run%gravity, deck%integrator, self%time, deck%run%dt_max, &
-                                          min(deck%run%t_end, self%next_checkpoint), err)
-    self%previous_stop = self%time
-    if (self%decomposed .and. .not. self%cross_windows) self%window_end = self%time + motion_window(self, par)
-    call next_phase(7)
-    self%startup_wall = par%wtime() - self%wall_start
+
+      if (len_trim(restart_path) > 0) then
+        call self%restart_from(meta, par%is_root())
+      else
+        call compute_totals(par, self%bodies, deck%run%gravity, self%initial)
+      end if
+      ! A fresh run starts a new history; a restart keeps the rows up to its time.
+      call self%history%init(par, join_path(self%output_dir, 'history.csv'), &
+                             merge(self%time, history_fresh_start, self%restarted), err)
+      if (err%failed()) return
+      ! History rows fall at the first step end at or after each multiple of the interval; the
+      ! next one follows from the time alone, so a restart needs nothing more.
+      self%next_history = (aint(self%time/self%history_interval) + 1.0_dp)*self%history_interval
+      if (.not. self%restarted) then
+        call self%record_history(par, err)
+        if (err%failed()) return
+        call self%write_frame(par, err)
+        if (err%failed()) return
+      end if
+      call next_phase(6)
+      if (self%local) call self%events%init(self%collisions, self%bodies, self%shapes, self%propagator, &
+                                            deck%run%gravity, deck%integrator, self%time, deck%run%dt_max, &
+                                            min(deck%run%t_end, self%next_checkpoint), err)
+      self%previous_stop = self%time
+      if (self%decomposed .and. .not. self%cross_windows) self%window_end = self%time + motion_window(self, par)
+      call next_phase(7)
+      self%startup_wall = par%wtime() - self%wall_start
+    end associate
   contains
     !> Phase k ends now (the deck's from started_at to init's entry).
     subroutine next_phase(k)
