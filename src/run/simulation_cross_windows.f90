@@ -175,7 +175,8 @@ contains
       ! a cross time, and nobody's run went past it)
       if (to_known) t_cross = min(t_cross, t_known)
       if (t_cross > t_window .and. t_late >= t_window) then
-        ! the window stands: every event up to the output time is the one-rank run's
+        ! the window stands: every event up to its end (the output time, or the window
+        ! length's end before it) is the one-rank run's
         self%time = t_window
       else
         clock = par%wtime()
