@@ -429,7 +429,7 @@ contains
   !> so any start that finds the crossing within a few cells finds the same cell and the
   !> same time. The answer is the last probe above the aim (the gap there is measured, so
   !> it is at least the target) unless one is within eps_gap of it, and it must lie within
-  !> what the bound certifies from t: otherwise, or if no such cell is found within 4 cells,
+  !> what the bound certifies from t: otherwise, or if no such cell is found within 2^24 cells each way,
   !> t stays as it is.
   subroutine canonical_crossing(oracle, motion, step, target, aim, eps_gap, t, gap, normal, result)
     class(distance_oracle_t), intent(inout) :: oracle
@@ -438,10 +438,16 @@ contains
     real(dp), intent(inout) :: t, gap, normal(3)
     type(advancement_result_t), intent(inout) :: result
     real(dp), parameter :: cell = 2.0_dp**(-40)
-    integer, parameter :: max_shifts = 4, max_probes = 12
+    !> the bracket is looked for by steps of 1, 2, 4, ... cells, up to 2^24 cells (15 us)
+    !> each way: a crossing refine_crossing found within its band, not within round-off of
+    !> the aim (a stalled or capped search keeps the point below the aim it measured), can
+    !> lie tens of cells from it, and a start that missed the cell by more than the 4 cells
+    !> once searched kept its own time (an impact on 2 x 2 bricks came 5.6e-11 s apart)
+    integer, parameter :: max_doublings = 24, max_probes = 12
     real(dp) :: t_abs, limit, lo, hi, g_lo, g_hi, n_lo(3), n_hi(3), f_lo, f_hi, s, g_s, n_s(3), best_t, best_g, &
-                best_n(3)
+                best_n(3), width
     integer :: k, side
+    integer(i8) :: n_cells
     t_abs = oracle%origin + t
     ! (times beyond 2^12 s would leave the cells fewer bits than their ends need)
     if (.not. (abs(t_abs) < 4096.0_dp)) return
@@ -451,23 +457,46 @@ contains
     hi = lo + cell
     call probe(lo, g_lo, n_lo)
     call probe(hi, g_hi, n_hi)
-    do k = 1, max_shifts
+    width = cell
+    do k = 1, max_doublings
       if (g_lo > aim) exit
       hi = lo
       g_hi = g_lo
       n_hi = n_lo
-      lo = lo - cell
+      lo = lo - width
+      width = 2.0_dp*width
       call probe(lo, g_lo, n_lo)
     end do
-    do k = 1, max_shifts
+    width = cell
+    do k = 1, max_doublings
       if (g_hi <= aim) exit
       lo = hi
       g_lo = g_hi
       n_lo = n_hi
-      hi = hi + cell
+      hi = hi + width
+      width = 2.0_dp*width
       call probe(hi, g_hi, n_hi)
     end do
     if (.not. (g_lo > aim .and. g_hi <= aim)) return
+    ! down to one cell by halving on the grid (lo and hi are whole cells apart, exactly:
+    ! multiples of 2^-40 s below 2^12 s): the cell where the gap crosses the aim, whichever
+    ! start the search came from
+    n_cells = nint((hi - lo)/cell, kind=i8)
+    do while (n_cells > 1)
+      s = lo + real(n_cells/2, dp)*cell
+      call probe(s, g_s, n_s)
+      if (g_s > aim) then
+        lo = s
+        g_lo = g_s
+        n_lo = n_s
+        n_cells = n_cells - n_cells/2
+      else
+        hi = s
+        g_hi = g_s
+        n_hi = n_s
+        n_cells = n_cells/2
+      end if
+    end do
     best_t = lo
     best_g = g_lo
     best_n = n_lo

@@ -109,3 +109,17 @@ if(RICOCHET_USE_HDF5)
   set_tests_properties(mpi.cross_rank_contacts PROPERTIES LABELS "mpi;regression"
                        ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 600)
 endif()
+
+# A large gas on 2 x 2 bricks against one rank, bit for bit: 100,000 spheres over 0.25 s,
+# whose impact across a brick face was once timed apart by 5.6e-11 s (the canonical
+# crossing's search too narrow; docs/architecture.md). About a minute: label slow.
+if(RICOCHET_USE_HDF5)
+  set(workdir ${CMAKE_CURRENT_BINARY_DIR}/run/mpi_gas_bricks_2x2)
+  file(MAKE_DIRECTORY ${workdir})
+  add_test(NAME mpi.gas_bricks_2x2
+           COMMAND ${RICOCHET_PYTHON} ${CMAKE_CURRENT_SOURCE_DIR}/mpi/check_gas_bricks_2x2.py
+                   $<TARGET_FILE:ricochet> ${workdir} ${MPIEXEC_EXECUTABLE} ${MPIEXEC_PREFLAGS}
+           WORKING_DIRECTORY ${workdir})
+  set_tests_properties(mpi.gas_bricks_2x2 PROPERTIES LABELS "mpi;regression;slow"
+                       ENVIRONMENT "${RICOCHET_TEST_ENV}" TIMEOUT 900)
+endif()
