@@ -629,7 +629,7 @@ contains
     integer, intent(in) :: slot
     real(dp), intent(in) :: t
     type(error_t), intent(inout) :: err
-    integer :: a, b, lower
+    integer :: a, b, decider
     what = CROSS_GO
     if (slot <= 0) return
     if (self%pairs%action(slot) /= ACTION_IMPACT) return
@@ -646,13 +646,13 @@ contains
         call stop_for_cross(self, bodies, a, b, [a, b], t)
       end if
     case (CROSS_PHASE)
-      lower = deciding_row(bodies, a, b)
-      if (lower > self%n_owned) then
-        ! (the owner of the lower id takes it: dropped here with its pair, which the next
+      decider = deciding_row(bodies, a, b)
+      if (decider > self%n_owned) then
+        ! (the deciding body's owner takes it: dropped here with its pair, which the next
         ! window's start makes again with the ghost)
         call self%pair_queue%remove(slot)
         call self%pairs%remove(slot)
-        call push(self%dropped_rows, self%n_dropped_rows, lower)
+        call push(self%dropped_rows, self%n_dropped_rows, decider)
         what = CROSS_DROPPED
       end if
     end select

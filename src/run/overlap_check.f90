@@ -11,7 +11,6 @@ module overlap_check
   use bucket_grid, only: bucket_grid_t, choose_box_size
   use mesh_distance, only: distance_result_t, sphere_mesh_distance
   use contact_features, only: bodies_overlap, winding_number
-  use skd_tree, only: skd_tree_t
   use quaternion, only: quat_rotate_inverse
   use pair_geometry, only: bounding_sphere_boxes
   use parallel_env, only: parallel_t
@@ -134,35 +133,16 @@ contains
       else if (si%kind == SHAPE_SPHERE) then
         call sphere_mesh_distance(bodies%x(:, i), si%radius, sj%tree, bodies%x(:, j), bodies%q(:, j), d)
         overlap = d%distance <= 0.0_dp
-        if (.not. overlap) overlap = inside(sj%tree, quat_rotate_inverse(bodies%q(:, j), bodies%x(:, i) - bodies%x(:, j)))
+        if (.not. overlap) overlap = winding_number(sj%tree, quat_rotate_inverse(bodies%q(:, j), bodies%x(:, i) - bodies%x(:, j))) > 0.5_dp
       else if (sj%kind == SHAPE_SPHERE) then
         call sphere_mesh_distance(bodies%x(:, j), sj%radius, si%tree, bodies%x(:, i), bodies%q(:, i), d)
         overlap = d%distance <= 0.0_dp
-        if (.not. overlap) overlap = inside(si%tree, quat_rotate_inverse(bodies%q(:, i), bodies%x(:, j) - bodies%x(:, i)))
+        if (.not. overlap) overlap = winding_number(si%tree, quat_rotate_inverse(bodies%q(:, i), bodies%x(:, j) - bodies%x(:, i))) > 0.5_dp
       else
         overlap = bodies_overlap(si%tree, bodies%x(:, i), bodies%q(:, i), sj%tree, bodies%x(:, j), bodies%q(:, j))
       end if
     end associate
   end function pair_overlaps
 
-  !> Point p (body frame) is inside the closed surface of tree: its winding number, unless
-  !> p lies outside the tree's root box (which holds every face), where the winding number
-  !> of a closed surface is 0 (a sphere beside a wall: most pairs of a gas in a box; the
-  !> winding number's atan2 per face was a third of the start-up overlap check).
-  logical function inside(tree, p)
-    type(skd_tree_t), intent(in) :: tree
-    real(dp), intent(in) :: p(3)
-    real(dp) :: local(3)
-    integer :: k
-    inside = .false.
-    if (tree%n_boxes > 0) then
-      do k = 1, 3
-        local(k) = dot_product(tree%box(7 + 3*(k - 1):9 + 3*(k - 1), 1), p - tree%box(1:3, 1))
-      end do
-      ! (a relative margin for the rounding of the box's axes)
-      if (any(abs(local) > tree%box(4:6, 1) + 1.0e-9_dp*tree%radius)) return
-    end if
-    inside = winding_number(tree, p) > 0.5_dp
-  end function inside
 
 end module overlap_check
