@@ -8,7 +8,7 @@
 !> faces, edges and corners of the decomposition. After migrate_bodies: no ghosts, every
 !> body owned by exactly one rank (the counts summed over the ranks, and each rank's gids
 !> exactly those a brute force over the moved list gives it), rows bit for bit the moved
-!> list's, owned rows in strictly increasing gid, versions carried, new_index right for
+!> list's, owned rows in strictly increasing gid, versions and payloads carried, new_index right for
 !> every row before, and the counts consistent (a message per face neighbour, bytes =
 !> headers + records, sent = received, every hop counted: forwarding along x, y, z).
 !> A second migration without motion moves nothing. Then the failures: a body moved two
@@ -71,9 +71,9 @@ contains
     type(domain_t) :: dom
     type(bodies_t) :: full, moved, local, before
     type(migration_stats_t) :: stats
-    integer(i8), allocatable :: versions(:), my_versions(:), expected(:)
+    integer(i8), allocatable :: versions(:), my_versions(:), expected(:), payload(:, :)
     integer, allocatable :: mine(:), new_index(:), expected_rows(:)
-    integer :: k, row, n_before, n_owned_before, n_changed, n_hops, n_diagonal, bad_rows, bad_versions, bad_index, n_faces, d
+    integer :: k, row, n_before, n_owned_before, n_changed, n_hops, n_diagonal, bad_rows, bad_versions, bad_payload, bad_index, n_faces, d
     integer :: old_c(3), new_c(3)
     integer(i8) :: sent, received
     character(len=:), allocatable :: what
@@ -116,7 +116,13 @@ contains
     n_owned_before = local%n_owned
     call before%append_rows(local, [(k, k=1, n_owned_before)], .false.)
 
-    call migrate_bodies(par, dom, local, err, my_versions, new_index, stats)
+    ! a payload of three words a body (as the flight records travel): made from the version
+    ! and gid, so that each body's words are its own
+    allocate (payload(3, n_owned_before))
+    do k = 1, n_owned_before
+      payload(:, k) = [ieor(my_versions(k), 12345_i8), local%gid(k), not(my_versions(k))]
+    end do
+    call migrate_bodies(par, dom, local, err, my_versions, new_index, stats, payload=payload)
     call check(err%ok(), what//': migration succeeds')
     if (err%failed()) write (*, '(a)') '  '//err%message
     call check(.not. par%any(err%failed()), what//': no rank failed')
@@ -141,6 +147,7 @@ contains
 
     bad_rows = 0
     bad_versions = 0
+    bad_payload = 0
     call check(size(my_versions) == local%n_owned, what//': one version per owned row')
     do k = 1, local%n_owned
       row = row_of_gid(moved, local%gid(k))
@@ -152,7 +159,13 @@ contains
       if (k <= size(my_versions)) then
         if (my_versions(k) /= versions(row)) bad_versions = bad_versions + 1
       end if
+      if (k <= size(payload, 2)) then
+        if (any(payload(:, k) /= [ieor(versions(row), 12345_i8), local%gid(k), not(versions(row))])) &
+          bad_payload = bad_payload + 1
+      end if
     end do
+    call check(size(payload, 1) == 3 .and. size(payload, 2) == local%n_owned, what//': one payload per owned row')
+    call check(bad_payload == 0, what//': payloads carried, bit for bit ('//str(bad_payload)//' wrong)')
     call check(bad_rows == 0, what//': rows bitwise the moved list''s ('//str(bad_rows)//' differ)')
     call check(bad_versions == 0, what//': versions carried ('//str(bad_versions)//' wrong)')
 
@@ -180,7 +193,7 @@ contains
       if (dom%face_neighbour(d) >= 0) n_faces = n_faces + 1
     end do
     call check(stats%migrations == 1 .and. stats%messages_sent == n_faces, what//': a message per face neighbour')
-    call check(stats%bytes_sent == 8_i8*(PACK_HEADER_WORDS*stats%messages_sent + (BODY_WORDS + 1)*stats%bodies_sent), &
+    call check(stats%bytes_sent == 8_i8*(PACK_HEADER_WORDS*stats%messages_sent + (BODY_WORDS + 1 + 3)*stats%bodies_sent), &
                what//': bytes sent = headers + records')
     call check(stats%bodies_left == count([(dom%owner_of(before%x(:, k)) /= dom%rank, k=1, before%n_owned)]), &
                what//': bodies left = owned bodies now elsewhere')
