@@ -160,6 +160,9 @@ module event_loop
     !> ghost rows whose pair a cross phase dropped (the caller makes them come again afresh)
     integer, allocatable :: dropped_rows(:)
     integer :: n_dropped_rows = 0
+    !> a pair of two bodies neither of which this rank owns and moves (held_pair) may be in
+    !> the store: made by a cross phase for a ghost of its impulse group
+    logical :: foreign_pairs = .false.
     !> Placing an owned body in the grid (a box crossing, or an event that moved its region)
     !> is a STOP_HALO (the ghosts the rank holds may no longer cover what can reach it, or a
     !> neighbour may not hold it while it can reach the neighbour's bodies) where it is
@@ -846,8 +849,9 @@ contains
     integer :: k, g, slot, next_slot
     ! the pairs a cross phase made on the spot for a ghost of its impulse group, with fixed
     ! bodies and other ghosts, are not this rank's (held_pair): gone, as a full start's
-    ! remap drops them with the ghost's row
-    do g = self%n_owned + 1, bodies%n_owned + bodies%n_ghost
+    ! remap drops them with the ghost's row (a scan of every ghost's pairs, only if any
+    ! was made: it was 2% of a two-rank run, done at every light start)
+    do g = self%n_owned + 1, merge(bodies%n_owned + bodies%n_ghost, self%n_owned, self%foreign_pairs)
       slot = self%pairs%head(g)
       do while (slot > 0)
         next_slot = self%pairs%next_of(slot, g)
@@ -858,6 +862,7 @@ contains
         slot = next_slot
       end do
     end do
+    self%foreign_pairs = .false.
     ! placed again whether or not they moved (a dropped pair is made again), then settled as
     ! the trajectories a cross phase brings (settle_changed: placed already, pairs certified)
     do k = 1, size(list)
@@ -1090,10 +1095,19 @@ contains
     type(bodies_t), intent(in) :: bodies
     type(free_flight_t), intent(in) :: flight
     integer :: i
-    real(dp) :: t_c, tau, a(3), x(3)
+    real(dp) :: t_c, tau, a(3), x(3), reach
     t = far_future
+    ! A body's centre at its crossing is within the margin of where it was placed
+    ! (schedule_crossing's bound): one placed deeper than that inside the watched box, and
+    ! held by no neighbour, cannot be outside what the halo covers then. (A box more for the
+    ! round-off: the scan of every owned body's queued crossing was 2% of a two-rank run.)
+    reach = self%margin + self%cells%h
     do i = 1, self%n_owned
       if (bodies%fixed(i) .or. .not. flight%is_anchored(i)) cycle
+      if (self%zone_sides_of(i) == 0) then
+        if (all(self%region_x(:, i) - reach > self%watch_lo) .and. all(self%region_x(:, i) + reach < self%watch_hi)) &
+          cycle
+      end if
       t_c = self%body_queue%time_of(i)
       if (t_c >= t) cycle
       tau = t_c - flight%t0(i)
@@ -1880,6 +1894,7 @@ contains
           if (bodies%fixed(i) .and. bodies%fixed(m)) cycle
           if (self%pairs%find(i, m) > 0) cycle
           q = self%pairs%add(i, m, bodies%gid(i), bodies%gid(m))
+          if (.not. held_pair(self, bodies, i, m)) self%foreign_pairs = .true.
         end do
         call ensure_pair_marks(self)
       end if
