@@ -59,6 +59,11 @@ module cell_grid
     logical :: journaling = .false.
     logical, allocatable :: touched(:)          !< per body
     integer, allocatable :: touched_ids(:)
+    !> (ROW_WORDS, k): row touched_ids(k) (placed, large, lower, upper, lo, hi) as it was
+    !> at its first change: restore_finish puts it back, so that a copy of the grid need
+    !> not carry the per-body rows (14 MB for the 56,000 rows of a rank of a 100,000-sphere
+    !> gas, copied at every window's save)
+    integer(i8), allocatable :: touched_rows(:, :)
     integer :: n_touched = 0
   contains
     procedure :: init => cells_init
@@ -76,19 +81,24 @@ module cell_grid
     procedure :: stop_journal => cells_stop_journal
   end type cell_grid_t
 
-  !> A grid's box table held apart from it (cell_grid_t swap_table): see restore_prepare
-  !> and restore_finish.
+  !> A grid's box table and per-body rows held apart from it (cell_grid_t swap_table): see
+  !> restore_prepare and restore_finish.
   type :: cell_lists_t
     private
     integer, allocatable :: cell_n(:), cell_at(:), cell_cap(:), pool(:)
     integer(i8), allocatable :: slot_key(:, :)
     logical, allocatable :: slot_used(:)
+    logical, allocatable :: placed(:), large(:), touched(:)
+    real(dp), allocatable :: lower(:, :), upper(:, :)
+    integer(i8), allocatable :: lo(:, :), hi(:, :), touched_rows(:, :)
+    integer, allocatable :: mark(:)
     integer :: table_size = 0, n_used = 0, pool_top = 0, pool_live = 0
     integer, allocatable :: touched_ids(:)
     integer :: n_touched = 0
   end type cell_lists_t
 
   integer, parameter :: first_room = 4          !< room of a new box's list
+  integer, parameter :: ROW_WORDS = 14          !< a body's row in touched_rows
 
 contains
 
@@ -135,6 +145,7 @@ contains
     if (allocated(self%large_ids)) deallocate (self%large_ids)
     if (allocated(self%touched)) deallocate (self%touched)
     if (allocated(self%touched_ids)) deallocate (self%touched_ids)
+    if (allocated(self%touched_rows)) deallocate (self%touched_rows)
     self%journaling = .false.
     self%n_touched = 0
     self%n_large = 0
@@ -163,22 +174,44 @@ contains
     call swap_ints(self%cell_cap, lists%cell_cap)
     call swap_ints(self%pool, lists%pool)
     call swap_ints(self%touched_ids, lists%touched_ids)
+    call swap_ints(self%mark, lists%mark)
+    call swap_logicals(self%placed, lists%placed)
+    call swap_logicals(self%large, lists%large)
+    call swap_logicals(self%touched, lists%touched)
+    call swap_reals(self%lower, lists%lower)
+    call swap_reals(self%upper, lists%upper)
+    call swap_keys(self%lo, lists%lo)
+    call swap_keys(self%hi, lists%hi)
+    call swap_keys(self%touched_rows, lists%touched_rows)
     call swap_int(self%table_size, lists%table_size)
     call swap_int(self%n_used, lists%n_used)
     call swap_int(self%pool_top, lists%pool_top)
     call swap_int(self%pool_live, lists%pool_live)
     call swap_int(self%n_touched, lists%n_touched)
-    block
-      integer(i8), allocatable :: key(:, :)
-      logical, allocatable :: used(:)
-      call move_alloc(lists%slot_key, key)
-      call move_alloc(self%slot_key, lists%slot_key)
-      call move_alloc(key, self%slot_key)
-      call move_alloc(lists%slot_used, used)
-      call move_alloc(self%slot_used, lists%slot_used)
-      call move_alloc(used, self%slot_used)
-    end block
+    call swap_keys(self%slot_key, lists%slot_key)
+    call swap_logicals(self%slot_used, lists%slot_used)
   contains
+    subroutine swap_logicals(a, b)
+      logical, allocatable, intent(inout) :: a(:), b(:)
+      logical, allocatable :: c(:)
+      call move_alloc(b, c)
+      call move_alloc(a, b)
+      call move_alloc(c, a)
+    end subroutine swap_logicals
+    subroutine swap_reals(a, b)
+      real(dp), allocatable, intent(inout) :: a(:, :), b(:, :)
+      real(dp), allocatable :: c(:, :)
+      call move_alloc(b, c)
+      call move_alloc(a, b)
+      call move_alloc(c, a)
+    end subroutine swap_reals
+    subroutine swap_keys(a, b)
+      integer(i8), allocatable, intent(inout) :: a(:, :), b(:, :)
+      integer(i8), allocatable :: c(:, :)
+      call move_alloc(b, c)
+      call move_alloc(a, b)
+      call move_alloc(c, a)
+    end subroutine swap_keys
     subroutine swap_ints(a, b)
       integer, allocatable, intent(inout) :: a(:), b(:)
       integer, allocatable :: c(:)
@@ -213,15 +246,20 @@ contains
       end do
     end if
     if (.not. allocated(self%touched_ids)) allocate (self%touched_ids(64))
+    if (allocated(self%touched_rows)) then
+      if (size(self%touched_rows, 2) /= size(self%touched_ids)) deallocate (self%touched_rows)
+    end if
+    if (.not. allocated(self%touched_rows)) allocate (self%touched_rows(ROW_WORDS, size(self%touched_ids)))
     self%n_touched = 0
     self%journaling = .true.
   end subroutine cells_start_journal
 
   !> Before a grid's other components are restored from a copy taken at start_journal
-  !> (with the tables set aside: swap_table): the bodies placed or unplaced since leave the
-  !> lists (at the ranges they have now). A grid not journaling (renumbered since, or never
-  !> started) empties its table instead, and restore_finish lists every body again
-  !> (n_touched = -1 marks it, carried through the copy with the table).
+  !> (with the tables and per-body rows set aside: swap_table): the bodies placed or
+  !> unplaced since leave the lists (at the ranges they have now). A grid not journaling
+  !> (never started: no bodies) empties its table instead, and restore_finish lists every
+  !> body again at the ranges it has (n_touched = -1 marks it, carried through the copy with
+  !> the table); a grid renumbered since the copy (remap_bodies) has no state to go back to.
   subroutine cells_restore_prepare(self)
     class(cell_grid_t), intent(inout) :: self
     integer :: k
@@ -238,8 +276,9 @@ contains
     end do
   end subroutine cells_restore_prepare
 
-  !> After that restore: the same bodies enter the lists at their restored ranges; the
-  !> lists are then those of the copy's time, and the journal starts again from there.
+  !> After that restore: the same bodies get back their rows of the copy's time (from the
+  !> journal) and enter the lists at those ranges; the lists are then those of the copy's
+  !> time, and the journal starts again from there.
   subroutine cells_restore_finish(self)
     class(cell_grid_t), intent(inout) :: self
     integer :: k
@@ -251,6 +290,10 @@ contains
       self%n_touched = 0
       return
     end if
+    ! (each row as it was at the start: the copy did not carry the rows)
+    do k = 1, self%n_touched
+      call unpack_row(self%touched_ids(k), self%touched_rows(:, k))
+    end do
     do k = 1, self%n_touched
       call list_again(self%touched_ids(k))
     end do
@@ -258,7 +301,20 @@ contains
       if (self%touched_ids(k) <= size(self%touched)) self%touched(self%touched_ids(k)) = .false.
     end do
     self%n_touched = 0
+    ! (the query stamps went back with the copy, the marks did not: none may match one)
+    self%mark = 0
+    self%mark_stamp = 0
   contains
+    subroutine unpack_row(i, words)
+      integer, intent(in) :: i
+      integer(i8), intent(in) :: words(ROW_WORDS)
+      self%placed(i) = words(1) /= 0
+      self%large(i) = words(2) /= 0
+      self%lower(:, i) = transfer(words(3:5), self%lower(:, i))
+      self%upper(:, i) = transfer(words(6:8), self%upper(:, i))
+      self%lo(:, i) = words(9:11)
+      self%hi(:, i) = words(12:14)
+    end subroutine unpack_row
     subroutine list_again(i)
       integer, intent(in) :: i
       integer(i8) :: a, b, c
@@ -290,12 +346,27 @@ contains
   subroutine note(self, i)
     type(cell_grid_t), intent(inout) :: self
     integer, intent(in) :: i
+    integer(i8), allocatable :: grown(:, :)
+    integer(i8), parameter :: mold = 0_i8
     if (.not. self%journaling) return
     if (self%touched(i)) return
     self%touched(i) = .true.
     if (self%n_touched == size(self%touched_ids)) call grow_list(self%touched_ids)
+    if (size(self%touched_rows, 2) < size(self%touched_ids)) then
+      allocate (grown(ROW_WORDS, size(self%touched_ids)))
+      grown(:, 1:self%n_touched) = self%touched_rows(:, 1:self%n_touched)
+      call move_alloc(grown, self%touched_rows)
+    end if
     self%n_touched = self%n_touched + 1
     self%touched_ids(self%n_touched) = i
+    associate (words => self%touched_rows(:, self%n_touched))
+      words(1) = merge(1_i8, 0_i8, self%placed(i))
+      words(2) = merge(1_i8, 0_i8, self%large(i))
+      words(3:5) = transfer(self%lower(:, i), mold, 3)
+      words(6:8) = transfer(self%upper(:, i), mold, 3)
+      words(9:11) = self%lo(:, i)
+      words(12:14) = self%hi(:, i)
+    end associate
   end subroutine note
 
   !> Room for bodies up to n.
