@@ -61,7 +61,7 @@ module cell_grid
     integer, allocatable :: touched_ids(:)
     !> (ROW_WORDS, k): row touched_ids(k) (placed, large, lower, upper, lo, hi) as it was
     !> at its first change: restore_finish puts it back, so that a copy of the grid need
-    !> not carry the per-body rows (14 MB for the 56,000 rows of a rank of a 100,000-sphere
+    !> not carry the per-body rows (6 MB for the 56,000 rows of a rank of a 100,000-sphere
     !> gas, copied at every window's save)
     integer(i8), allocatable :: touched_rows(:, :)
     integer :: n_touched = 0
