@@ -57,6 +57,7 @@ module free_flight
     procedure :: unpack_anchors => flight_unpack_anchors
     procedure :: set_record => flight_set_record
     procedure :: grow => flight_grow
+    procedure :: remap => flight_remap
     procedure :: start_journal => flight_start_journal
     procedure :: stop_journal => flight_stop_journal
     procedure :: roll_back => flight_roll_back
@@ -440,6 +441,57 @@ contains
     call move_alloc(v0, self%v0)
     call move_alloc(anchored, self%anchored)
   end subroutine flight_grow
+
+  !> The rows were renumbered (a migration): row k's record goes to row new_index(k) (0: it
+  !> is gone), in room for n rows; rows no record came to have no load and no anchor (the
+  !> caller sets those of the bodies that arrived: set_record). One gather of each array,
+  !> where packing every record and unpacking them again copied them four times (36 MB for
+  !> 50,000 bodies, at every full window start). Not while journaling.
+  subroutine flight_remap(self, new_index, n)
+    class(free_flight_t), intent(inout) :: self
+    integer, intent(in) :: new_index(:)
+    integer, intent(in) :: n
+    type(free_rotor_t), allocatable :: rotors(:)
+    real(dp), allocatable :: t0(:), x0(:, :), v0(:, :), accel(:, :)
+    logical, allocatable :: anchored(:), loaded(:)
+    integer :: k, nk, n_old
+    if (.not. allocated(self%loaded)) return
+    n_old = min(size(new_index), size(self%loaded))
+    if (allocated(self%journaled)) deallocate (self%journaled)
+    self%journaling = .false.
+    self%n_journal = 0
+    allocate (loaded(n), accel(3, n))
+    loaded = .false.
+    accel = 0.0_dp
+    do k = 1, n_old
+      nk = new_index(k)
+      if (nk < 1 .or. nk > n) cycle
+      loaded(nk) = self%loaded(k)
+      accel(:, nk) = self%accel(:, k)
+    end do
+    call move_alloc(loaded, self%loaded)
+    call move_alloc(accel, self%accel)
+    if (.not. self%exact) return
+    allocate (rotors(n), t0(n), x0(3, n), v0(3, n), anchored(n))
+    anchored = .false.
+    t0 = 0.0_dp
+    x0 = 0.0_dp
+    v0 = 0.0_dp
+    do k = 1, n_old
+      nk = new_index(k)
+      if (nk < 1 .or. nk > n) cycle
+      rotors(nk) = self%rotors(k)
+      t0(nk) = self%t0(k)
+      x0(:, nk) = self%x0(:, k)
+      v0(:, nk) = self%v0(:, k)
+      anchored(nk) = self%anchored(k)
+    end do
+    call move_alloc(rotors, self%rotors)
+    call move_alloc(t0, self%t0)
+    call move_alloc(x0, self%x0)
+    call move_alloc(v0, self%v0)
+    call move_alloc(anchored, self%anchored)
+  end subroutine flight_remap
 
   !> Body i's flight record from words (one record of pack_anchors), bit for bit: a body
   !> whose new trajectory another rank computed (a cross-rank impact).

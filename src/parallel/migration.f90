@@ -72,13 +72,17 @@ contains
   !> versions) sends nothing more but still takes what arrives.
   !> payload(:, k): more of the caller's words of owned body k (its flight record: the
   !> anchor), travelling with it bit for bit and returned in the new row order, as versions.
-  subroutine migrate_bodies(par, dom, bodies, err, versions, new_index, stats, payload)
+  !> With payload_rows, payload(:, m) is row payload_rows(m)'s, and only those rows carry
+  !> one (the bodies that leave: the records of those that stay do not move); after, the
+  !> rows with a payload (increasing) and theirs.
+  subroutine migrate_bodies(par, dom, bodies, err, versions, new_index, stats, payload, payload_rows)
     type(parallel_t), intent(in) :: par
     type(domain_t), intent(in) :: dom
     type(bodies_t), intent(inout) :: bodies
     type(error_t), intent(inout) :: err
     integer(i8), allocatable, intent(inout), optional :: versions(:)
     integer(i8), allocatable, intent(inout), optional :: payload(:, :)
+    integer, allocatable, intent(inout), optional :: payload_rows(:)
     integer, allocatable, intent(out), optional :: new_index(:)
     type(migration_stats_t), intent(inout), optional :: stats
     ! per held row, kept in step with the rows: the extras packed with it (the version),
@@ -125,7 +129,15 @@ contains
     n_payload = 0
     if (present(payload)) then
       if (allocated(payload)) n_payload = size(payload, 1)
-      if (allocated(payload)) then
+      if (present(payload_rows)) then
+        if (.not. allocated(payload_rows)) allocate (payload_rows(0))
+        if (.not. allocated(payload)) allocate (payload(0, 0))
+        if (any(payload_rows < 1 .or. payload_rows > n) .or. size(payload, 2) < size(payload_rows)) then
+          if (err%ok()) call err%set(ERR_INTERNAL, 'migration: payload rows outside the '//str(n)// &
+                                     ' owned bodies, or more rows than payloads')
+          sending = .false.
+        end if
+      else if (allocated(payload)) then
         if (size(payload, 2) < n) then
           if (err%ok()) call err%set(ERR_INTERNAL, 'migration: payload for '//str(size(payload, 2))// &
                                      ' of '//str(n)//' owned bodies')
@@ -137,7 +149,13 @@ contains
     allocate (extra(n_version, n), slot(n), arrived(n_payload, 16))
     extra = 0
     slot = 0
-    if (n_payload > 0 .and. sending) slot = [(k, k=1, n)]
+    if (n_payload > 0 .and. sending) then
+      if (present(payload_rows)) then
+        slot(payload_rows) = [(k, k=1, size(payload_rows))]
+      else
+        slot = [(k, k=1, n)]
+      end if
+    end if
     n_arrived = 0
     if (present(versions)) then
       k = 0
@@ -240,7 +258,20 @@ contains
       allocate (versions(n))
       versions = extra(1, 1:n)
     end if
-    if (present(payload)) then
+    if (present(payload) .and. present(payload_rows)) then
+      ! (the rows with one, in row order)
+      payload_rows = pack([(k, k=1, n)], slot(1:n) /= 0)
+      if (allocated(message_extra)) deallocate (message_extra)
+      allocate (message_extra(n_payload, size(payload_rows)))
+      do k = 1, size(payload_rows)
+        if (slot(payload_rows(k)) > 0) then
+          message_extra(:, k) = payload(:, slot(payload_rows(k)))
+        else
+          message_extra(:, k) = arrived(:, -slot(payload_rows(k)))
+        end if
+      end do
+      call move_alloc(message_extra, payload)
+    else if (present(payload)) then
       ! (one gather, the only copy of every record)
       if (allocated(message_extra)) deallocate (message_extra)
       allocate (message_extra(n_payload, n))

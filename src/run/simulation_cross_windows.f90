@@ -327,7 +327,7 @@ contains
     integer(i8), allocatable :: payload(:, :), sent(:, :), received(:, :), words(:, :), held(:, :), versions(:)
     integer(i8), allocatable :: old_sorted(:, :), old_local(:), old_owner(:), ghost_versions(:)
     integer(i8), allocatable :: zeros(:)
-    integer, allocatable :: rows(:), order(:), new_index(:), old_order(:), halo_rows(:)
+    integer, allocatable :: rows(:), order(:), new_index(:), old_order(:), halo_rows(:), leavers(:)
     integer :: n_words, i, k, n_owned, n_halo, mid, n_old_owned, n_old_ghosts, r
     logical :: rebuilt, in_place
     ! the last window's ghosts: a ghost that comes again with its owner's same version (the
@@ -355,9 +355,19 @@ contains
       allocate (new_index(self%bodies%n_owned))
       new_index = [(i, i=1, self%bodies%n_owned)]
     else
-      call self%propagator%pack_anchors(self%bodies%n_owned, payload)
+      ! only the bodies that leave carry their flight records; the others' move to their new
+      ! rows in place (free_flight remap), and the arrivals' are set from what came
+      leavers = pack([(i, i=1, n_old_owned)], [(self%dom%owner_of(self%bodies%x(:, i)) /= self%dom%rank, &
+                                                 i=1, n_old_owned)])
+      call self%propagator%pack_anchors(0, payload, leavers)
       call migrate_bodies(par, self%dom, self%bodies, err, versions=versions, new_index=new_index, &
-                          stats=self%migration, payload=payload)
+                          stats=self%migration, payload=payload, payload_rows=leavers)
+      if (err%ok()) then
+        call self%propagator%remap(new_index(1:n_old_owned), self%bodies%n_owned)
+        do k = 1, size(leavers)
+          call self%propagator%set_record(leavers(k), payload(:, k))
+        end do
+      end if
     end if
     self%in_own_bricks = .false.
     if (par%any(err%failed())) then
@@ -378,12 +388,8 @@ contains
     halo_rows = pack([(i, i=1, n_owned)], frontier)
     allocate (sent(1 + n_words, size(halo_rows)))
     sent(1, :) = par%rank
-    if (in_place) then
-      call self%propagator%pack_anchors(0, words, halo_rows)
-      sent(2:, :) = words
-    else
-      sent(2:, :) = payload(:, halo_rows)
-    end if
+    call self%propagator%pack_anchors(0, words, halo_rows)
+    sent(2:, :) = words
     call exchange_halo(par, self%dom, self%bodies, halo_rings, err, versions=versions, ghost_versions=ghost_versions, &
                        payload=sent, ghost_payload=received, payload_rows=halo_rows)
     if (par%any(err%failed())) then
@@ -398,27 +404,17 @@ contains
       if (find_key(held, size(order), [self%statics%gid(k)]) == 0) rows = [rows, k]
     end do
     if (size(rows) > 0) call self%bodies%append_rows(self%statics, rows, .true.)
-    ! every row's flight record (a fixed body has none: zeros)
-    if (in_place) then
-      ! (the owned rows' are in place: only the new rows')
-      call self%propagator%grow(self%bodies%n_total())
-      allocate (zeros(n_words))
-      zeros = 0
-      do r = n_owned + 1, self%bodies%n_total()
-        if (r <= n_owned + n_halo) then
-          call self%propagator%set_record(r, received(2:, r - n_owned))
-        else
-          call self%propagator%set_record(r, zeros)
-        end if
-      end do
-    else
-      if (allocated(words)) deallocate (words)
-      allocate (words(n_words, self%bodies%n_total()))
-      words = 0
-      words(:, 1:n_owned) = payload(:, 1:n_owned)
-      if (n_halo > 0) words(:, n_owned + 1:n_owned + n_halo) = received(2:, 1:n_halo)
-      call self%propagator%unpack_anchors(words, self%deck%integrator)
-    end if
+    ! every row's flight record (a fixed body has none: zeros); the owned rows' are in place
+    call self%propagator%grow(self%bodies%n_total())
+    allocate (zeros(n_words))
+    zeros = 0
+    do r = n_owned + 1, self%bodies%n_total()
+      if (r <= n_owned + n_halo) then
+        call self%propagator%set_record(r, received(2:, r - n_owned))
+      else
+        call self%propagator%set_record(r, zeros)
+      end if
+    end do
     allocate (owner(self%bodies%n_total()))
     owner = -1
     owner(1:n_owned) = par%rank
