@@ -35,6 +35,7 @@ module event_loop
   use time_of_contact, only: advancement_result_t
   use pair_store, only: pair_store_t, ACTION_NONE, ACTION_QUERY, ACTION_IMPACT, ACTION_ENTER
   use event_queue, only: event_queue_t
+  use row_journal, only: row_journal_t
   use cell_grid, only: cell_grid_t, cell_lists_t
   use islands, only: island_table_t, body_islands
   use sorting, only: sort_index_keys
@@ -63,6 +64,8 @@ module event_loop
 
   !> "Never" [s]: later than any run, far from overflow in t + dt.
   real(dp), parameter :: far_future = 1.0e30_dp
+  !> words of a body's row in the loop's row journal (touch_row)
+  integer, parameter :: LOOP_ROW_WORDS = 16
   !> Closest-point queries one certificate may spend before it is queued again (a pair that
   !> converges slowly is then re-examined lazily, and may be invalidated before that).
   integer, parameter :: queries_per_certificate = 16
@@ -194,6 +197,12 @@ module event_loop
     integer, allocatable :: change_log_row(:)
     real(dp), allocatable :: change_log_time(:)
     integer(i8), allocatable :: change_log_words(:, :)
+    !> An undo journal of the per-body rows (version, changes, state_time, expiry,
+    !> region_x, island_of, released_at, first_change, path_lo, path_hi: ROW_WORDS words) for
+    !> a cross-rank window's save (copy_loop): the copy then carries none of them, nor the
+    !> scratch marks (8 MB a window for a rank of a 100,000-sphere gas). touch_row keeps a
+    !> row before its first change. (Allocatable: the copy does not carry it either.)
+    type(row_journal_t), allocatable :: row_journal
   contains
     procedure :: init => loop_init
     procedure :: remap_bodies => loop_remap_bodies
@@ -237,6 +246,8 @@ contains
     keep = .false.
     if (present(keep_anchors)) keep = keep_anchors
     n = bodies%n_owned + bodies%n_ghost
+    ! (a journal's rows mean nothing in a loop built again)
+    if (allocated(self%row_journal)) call self%row_journal%stop()
     self%time = t
     self%gravity = gravity
     self%config = config
@@ -380,6 +391,8 @@ contains
     n = bodies%n_owned + bodies%n_ghost
     self%n_owned = bodies%n_owned
     rebuilt = .false.
+    ! (a journal's rows mean nothing after a renumbering)
+    if (allocated(self%row_journal)) call self%row_journal%stop()
     call self%islands%remap_bodies(new_index, kept)
     if (.not. kept) then
       rebuilt = .true.
@@ -807,6 +820,7 @@ contains
     do i = 1, bodies%n_owned + bodies%n_ghost
       if (bodies%fixed(i) .or. self%state_time(i) == t) cycle
       call bodies%touch(i)
+      call touch_row(self, i)
       call flight%evaluate(bodies, i, t, self%gravity)
       self%state_time(i) = t
       self%stats%output_evaluations = self%stats%output_evaluations + 1
@@ -919,6 +933,7 @@ contains
     ! (every body an event reads is synced first: what an impulse changes is kept too)
     call bodies%touch(i)
     if (self%state_time(i) == t) return
+    call touch_row(self, i)
     call flight%evaluate(bodies, i, t, self%gravity)
     self%state_time(i) = t
     self%stats%evaluations = self%stats%evaluations + 1
@@ -986,6 +1001,7 @@ contains
     type(event_loop_t), intent(inout) :: self
     integer, intent(in) :: i
     real(dp), intent(in) :: t
+    call touch_row(self, i)
     self%state_time(i) = t
     self%version(i) = self%version(i) + 1
     self%changes(i) = self%changes(i) + 1
@@ -1032,6 +1048,90 @@ contains
   !> back at their restored box ranges, cell_grid restore_prepare, restore_finish). Every
   !> other component is copied (intrinsic assignment). The saved copy holds no pairs and no
   !> queues: it is only ever restored from. Journals stop at the window's end (stop_journal).
+  !> While a window's save journals (row_journal): body i's per-body row is about to change;
+  !> the first time since the save, it is kept as it is now.
+  subroutine touch_row(self, i)
+    type(event_loop_t), intent(inout) :: self
+    integer, intent(in) :: i
+    integer :: m
+    integer(i8), parameter :: mold = 0_i8
+    if (.not. allocated(self%row_journal)) return
+    if (.not. self%row_journal%active) return
+    m = self%row_journal%keep(i)
+    if (m == 0) return
+    associate (w => self%row_journal%words(:, m))
+      w(1) = self%version(i)
+      w(2) = self%changes(i)
+      w(3) = transfer(self%state_time(i), mold)
+      w(4) = transfer(self%expiry(i), mold)
+      w(5:7) = transfer(self%region_x(:, i), mold, 3)
+      w(8) = self%island_of(i)
+      w(9) = transfer(self%released_at(i), mold)
+      w(10) = transfer(far_future, mold)
+      w(11:16) = 0
+      if (allocated(self%first_change)) then
+        if (i <= size(self%first_change)) w(10) = transfer(self%first_change(i), mold)
+      end if
+      if (allocated(self%path_lo)) then
+        if (i <= size(self%path_lo, 2)) then
+          w(11:13) = transfer(self%path_lo(:, i), mold, 3)
+          w(14:16) = transfer(self%path_hi(:, i), mold, 3)
+        end if
+      end if
+    end associate
+  end subroutine touch_row
+
+  !> The rows kept since the save back as they were; the scratch marks cleared (their stamp
+  !> went back with the copy). The journal goes on from there.
+  subroutine roll_back_rows(self)
+    type(event_loop_t), intent(inout) :: self
+    integer :: m, i
+    if (.not. allocated(self%row_journal)) return
+    do m = 1, self%row_journal%n
+      i = self%row_journal%ids(m)
+      associate (w => self%row_journal%words(:, m))
+        self%version(i) = w(1)
+        self%changes(i) = w(2)
+        self%state_time(i) = transfer(w(3), 1.0_dp)
+        self%expiry(i) = transfer(w(4), 1.0_dp)
+        self%region_x(:, i) = transfer(w(5:7), self%region_x(:, i))
+        self%island_of(i) = int(w(8))
+        self%released_at(i) = transfer(w(9), 1.0_dp)
+        if (allocated(self%first_change)) then
+          if (i <= size(self%first_change)) self%first_change(i) = transfer(w(10), 1.0_dp)
+        end if
+        if (allocated(self%path_lo)) then
+          if (i <= size(self%path_lo, 2)) then
+            self%path_lo(:, i) = transfer(w(11:13), self%path_lo(:, i))
+            self%path_hi(:, i) = transfer(w(14:16), self%path_hi(:, i))
+          end if
+        end if
+      end associate
+    end do
+    call self%row_journal%clear()
+    self%mark = 0
+    self%pair_mark = 0
+    self%stamp = 0
+  end subroutine roll_back_rows
+
+  !> The per-body rows and scratch marks of `from` moved to `to` (both ways: a holder).
+  subroutine move_rows(from, to)
+    type(event_loop_t), intent(inout) :: from, to
+    call move_alloc(from%version, to%version)
+    call move_alloc(from%changes, to%changes)
+    call move_alloc(from%state_time, to%state_time)
+    call move_alloc(from%expiry, to%expiry)
+    call move_alloc(from%region_x, to%region_x)
+    call move_alloc(from%island_of, to%island_of)
+    call move_alloc(from%released_at, to%released_at)
+    call move_alloc(from%first_change, to%first_change)
+    call move_alloc(from%path_lo, to%path_lo)
+    call move_alloc(from%path_hi, to%path_hi)
+    call move_alloc(from%mark, to%mark)
+    call move_alloc(from%pair_mark, to%pair_mark)
+    if (allocated(from%row_journal)) call move_alloc(from%row_journal, to%row_journal)
+  end subroutine move_rows
+
   subroutine copy_loop(dst, src, restoring)
     type(event_loop_t), intent(inout) :: dst
     type(event_loop_t), intent(inout) :: src
@@ -1039,13 +1139,18 @@ contains
     type(cell_lists_t) :: src_lists, dst_lists
     type(pair_store_t), allocatable :: kept_pairs
     type(event_queue_t), allocatable :: kept_pair_queue, kept_body_queue
+    type(event_loop_t) :: rows_holder
     if (restoring) then
       call dst%cells%restore_prepare()
       call move_alloc(dst%pairs, kept_pairs)
       call move_alloc(dst%pair_queue, kept_pair_queue)
       call move_alloc(dst%body_queue, kept_body_queue)
+      call move_rows(dst, rows_holder)
     else
       call src%cells%start_journal()
+      if (.not. allocated(src%row_journal)) allocate (src%row_journal)
+      if (allocated(src%version)) call src%row_journal%start(size(src%version), LOOP_ROW_WORDS)
+      call move_rows(src, rows_holder)
       call move_alloc(src%pairs, kept_pairs)
       call move_alloc(src%pair_queue, kept_pair_queue)
       call move_alloc(src%body_queue, kept_body_queue)
@@ -1056,6 +1161,8 @@ contains
     call src%cells%swap_table(src_lists)
     call dst%cells%swap_table(dst_lists)
     if (restoring) then
+      call move_rows(rows_holder, dst)
+      call roll_back_rows(dst)
       call move_alloc(kept_pairs, dst%pairs)
       call move_alloc(kept_pair_queue, dst%pair_queue)
       call move_alloc(kept_body_queue, dst%body_queue)
@@ -1064,6 +1171,7 @@ contains
       call dst%pair_queue%roll_back()
       call dst%body_queue%roll_back()
     else
+      call move_rows(rows_holder, src)
       call move_alloc(kept_pairs, src%pairs)
       call move_alloc(kept_pair_queue, src%pair_queue)
       call move_alloc(kept_body_queue, src%body_queue)
@@ -1077,6 +1185,7 @@ contains
   subroutine loop_stop_journal(self)
     class(event_loop_t), intent(inout) :: self
     call self%cells%stop_journal()
+    if (allocated(self%row_journal)) call self%row_journal%stop()
     if (allocated(self%pairs)) call self%pairs%stop_journal()
     if (allocated(self%pair_queue)) call self%pair_queue%stop_journal()
     if (allocated(self%body_queue)) call self%body_queue%stop_journal()
@@ -1128,6 +1237,7 @@ contains
     if (.not. allocated(self%path_lo)) return
     do i = 1, min(self%n_owned, size(self%path_lo, 2))
       if (bodies%fixed(i) .or. self%first_change(i) >= far_future) cycle
+      call touch_row(self, i)
       call sweep_segment(self, flight, i, t, self%path_lo(:, i), self%path_hi(:, i))
     end do
   end subroutine loop_close_paths
@@ -1143,6 +1253,7 @@ contains
     real(dp) :: grow
     grow = shapes%shapes(bodies%shape_id(i))%bounding_radius + 0.5_dp*self%band
     if (.not. bodies%fixed(i)) grow = grow + self%margin
+    call touch_row(self, i)
     self%region_x(:, i) = bodies%x(:, i)
     call self%cells%place(i, bodies%x(:, i) - grow, bodies%x(:, i) + grow, err)
     if (err%failed()) call err%prefix('body '//str(bodies%gid(i))//': ')
@@ -1962,6 +2073,7 @@ contains
       self%stats%island_cuts = self%stats%island_cuts + 1
       do k = 1, size(members)
         call sync(self, bodies, flight, members(k), t)
+        call touch_row(self, members(k))
         self%island_of(members(k)) = 0
         self%expiry(members(k)) = far_future
         call push(list, n_list, members(k))
@@ -2020,6 +2132,7 @@ contains
     call self%islands%remove(id)
     do k = 1, size(members)
       call sync(self, bodies, flight, members(k), t)
+      call touch_row(self, members(k))
       self%island_of(members(k)) = 0
       self%expiry(members(k)) = far_future
     end do
@@ -2334,6 +2447,7 @@ contains
         island = self%islands%add(in_island, T, h2, h)
         slot_of(c) = island
         do k = 1, size(in_island)
+          call touch_row(self, in_island(k))
           self%island_of(in_island(k)) = island
           self%expiry(in_island(k)) = T + h2
         end do
@@ -2344,7 +2458,10 @@ contains
     ! the members it lets go (in no island now): not entered again at T (certify)
     do k = 1, n_members
       i = members(k)
-      if (.not. bodies%fixed(i) .and. self%island_of(i) == 0) self%released_at(i) = T
+      if (.not. bodies%fixed(i) .and. self%island_of(i) == 0) then
+        call touch_row(self, i)
+        self%released_at(i) = T
+      end if
     end do
     ! every pair of a member (its gap at T measured above), and of any body whose trajectory
     ! changed, certified from T
@@ -2476,6 +2593,7 @@ contains
     self%stats%joins = self%stats%joins + size(joiners)
     associate (isl => self%islands%islands(island))
       do k = 1, size(joiners)
+        call touch_row(self, joiners(k))
         self%island_of(joiners(k)) = island
         self%expiry(joiners(k)) = isl%t_start + isl%step
       end do
