@@ -212,6 +212,14 @@ contains
     deallocate (self%pos)
     allocate (self%pos(c))
     self%pos = 0
+    call heapify(self, n)
+  end subroutine queue_remap_handles
+
+  !> heap(1:n) made a heap of the handles it holds (Floyd, O(n)), with their positions.
+  subroutine heapify(self, n)
+    type(event_queue_t), intent(inout) :: self
+    integer, intent(in) :: n
+    integer :: p
     self%n = n
     do p = 1, n
       self%pos(self%heap(p)) = p
@@ -219,7 +227,7 @@ contains
     do p = n/2, 1, -1
       call sift_down(self, p)
     end do
-  end subroutine queue_remap_handles
+  end subroutine heapify
 
   !> The heap property and the position index hold (tests).
   pure logical function queue_check_heap(self) result(ok)
@@ -342,13 +350,7 @@ contains
       n = n + 1
       self%heap(n) = h
     end do
-    self%n = n
-    do p = 1, n
-      self%pos(self%heap(p)) = p
-    end do
-    do p = n/2, 1, -1
-      call sift_down(self, p)
-    end do
+    call heapify(self, n)
     call self%journal%clear()
   end subroutine queue_roll_back
 
