@@ -152,6 +152,18 @@ def compare(name, path, ranks_list, need_cross=True, need_light=False):
             # what the bitwise comparison below checks)
             c.check(counts[4] > 0, f"{name} on {ranks} ranks: windows started light ({counts})")
             rezoned.append(rezoned_count(proc.stdout) or 0)
+        # the load report's busy time: the rank's work on events, so the busiest rank's at
+        # least rank 0's impacts and certificates ("time by phase", 4 digits printed), and not
+        # more than the run (it counted only the outputs' evaluations of the local loop)
+        busy = re.search(r"busy ([0-9.Ee+-]+) / ([0-9.Ee+-]+) / ([0-9.Ee+-]+) s", proc.stdout)
+        wall = re.search(r"wall time\s+([0-9.Ee+-]+) s", proc.stdout)
+        phases = re.search(r"impacts ([0-9.Ee+-]+) s, certificates and box crossings ([0-9.Ee+-]+) s", proc.stdout)
+        c.check(busy is not None and wall is not None and phases is not None and
+                float(busy.group(3)) * 1.001 >= float(phases.group(1)) + float(phases.group(2)) and
+                float(busy.group(3)) <= float(wall.group(1)),
+                f"{name} on {ranks} ranks: the busiest rank's busy time covers rank 0's event phases, within "
+                f"the wall time ({busy.group(0) if busy else None}; {phases.group(0) if phases else None}; "
+                f"{wall.group(0) if wall else None})")
         same_run(one, out, f"{name}: 1 vs {ranks} ranks")
     if need_light:
         # (bodies that came near a neighbouring brick were sent at a light start, appended
