@@ -429,8 +429,8 @@ contains
   !> so any start that finds the crossing within a few cells finds the same cell and the
   !> same time. The answer is the last probe above the aim (the gap there is measured, so
   !> it is at least the target) unless one is within eps_gap of it, and it must lie within
-  !> what the bound certifies from t: otherwise, or if no such cell is found within 2^24 cells each way,
-  !> t stays as it is.
+  !> what the bound certifies from t: otherwise, or if no such cell is found within 2^24
+  !> cells each way, t stays as it is.
   subroutine canonical_crossing(oracle, motion, step, target, aim, eps_gap, t, gap, normal, result)
     class(distance_oracle_t), intent(inout) :: oracle
     type(pair_motion_t), intent(in) :: motion

@@ -54,7 +54,6 @@ module free_flight
     procedure :: anchor_words => flight_anchor_words
     procedure :: pack_anchors => flight_pack_anchors
     procedure :: record_of => flight_record_of
-    procedure :: unpack_anchors => flight_unpack_anchors
     procedure :: set_record => flight_set_record
     procedure :: grow => flight_grow
     procedure :: remap => flight_remap
@@ -381,19 +380,6 @@ contains
     self%n_journal = 0
     self%journaling = .true.
   end subroutine flight_roll_back
-
-  !> The flight of bodies 1..size(words, 2) from records pack_anchors made (the flight is
-  !> set up again for that many bodies: migration changes which bodies a rank holds).
-  subroutine flight_unpack_anchors(self, words, config)
-    class(free_flight_t), intent(inout) :: self
-    integer(i8), intent(in) :: words(:, :)
-    type(integrator_config_t), intent(in) :: config
-    integer :: k
-    call self%init(size(words, 2), config)
-    do k = 1, size(words, 2)
-      call self%set_record(k, words(:, k))
-    end do
-  end subroutine flight_unpack_anchors
 
   !> Room for bodies up to n, the records held kept (rows appended: ghosts that arrive at a
   !> light window start). New rows: no load, not anchored.

@@ -25,8 +25,8 @@ module contact_features
   use skd_tree, only: skd_tree_t, LEAF_SIZE, owns_vertex, owns_edge, sharp_edge
   use closest_primitives, only: closest_point_triangle, closest_segment_segment, REGION_FACE, REGION_VERTEX_A, &
                                 REGION_VERTEX_B, REGION_VERTEX_C, REGION_EDGE_AB, REGION_EDGE_BC, REGION_EDGE_CA
-  use mesh_distance, only: query_stats_t, relative_pose_t, make_relative_pose, box_gap2, point_box_gap2, STACK_SIZE, edge_nodes, &
-                           FEATURE_VERTEX_FACE, FEATURE_FACE_VERTEX, FEATURE_EDGE_EDGE
+  use mesh_distance, only: query_stats_t, relative_pose_t, make_relative_pose, box_gap2, point_box_gap2, STACK_SIZE, &
+                           edge_nodes, FEATURE_VERTEX_FACE, FEATURE_FACE_VERTEX, FEATURE_EDGE_EDGE
   implicit none
   private
   public :: contact_feature_t, find_contact_features, bodies_overlap, check_no_overlap, winding_number

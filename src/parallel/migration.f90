@@ -70,11 +70,10 @@ contains
   !> holding it and every other body still migrates, so each is still held exactly once.
   !> A failure that makes this rank's routing meaningless (a domain of another rank, short
   !> versions) sends nothing more but still takes what arrives.
-  !> payload(:, k): more of the caller's words of owned body k (its flight record: the
-  !> anchor), travelling with it bit for bit and returned in the new row order, as versions.
-  !> With payload_rows, payload(:, m) is row payload_rows(m)'s, and only those rows carry
-  !> one (the bodies that leave: the records of those that stay do not move); after, the
-  !> rows with a payload (increasing) and theirs.
+  !> payload (with payload_rows): more of the caller's words (a flight record: the anchor),
+  !> payload(:, m) owned row payload_rows(m)'s, travelling with it bit for bit; only those
+  !> rows carry one (the bodies that leave: the records of those that stay need not move).
+  !> After, payload_rows lists the rows with a payload (increasing), payload(:, m) theirs.
   subroutine migrate_bodies(par, dom, bodies, err, versions, new_index, stats, payload, payload_rows)
     type(parallel_t), intent(in) :: par
     type(domain_t), intent(in) :: dom
@@ -127,35 +126,24 @@ contains
     n_version = 0
     if (present(versions)) n_version = 1
     n_payload = 0
-    if (present(payload)) then
-      if (allocated(payload)) n_payload = size(payload, 1)
-      if (present(payload_rows)) then
-        if (.not. allocated(payload_rows)) allocate (payload_rows(0))
-        if (.not. allocated(payload)) allocate (payload(0, 0))
-        if (any(payload_rows < 1 .or. payload_rows > n) .or. size(payload, 2) < size(payload_rows)) then
-          if (err%ok()) call err%set(ERR_INTERNAL, 'migration: payload rows outside the '//str(n)// &
-                                     ' owned bodies, or more rows than payloads')
-          sending = .false.
-        end if
-      else if (allocated(payload)) then
-        if (size(payload, 2) < n) then
-          if (err%ok()) call err%set(ERR_INTERNAL, 'migration: payload for '//str(size(payload, 2))// &
-                                     ' of '//str(n)//' owned bodies')
-          sending = .false.
-        end if
+    if (present(payload) .neqv. present(payload_rows)) then
+      if (err%ok()) call err%set(ERR_INTERNAL, 'migration: a payload without its rows, or rows without a payload')
+      sending = .false.
+    else if (present(payload)) then
+      if (.not. allocated(payload_rows)) allocate (payload_rows(0))
+      if (.not. allocated(payload)) allocate (payload(0, 0))
+      n_payload = size(payload, 1)
+      if (any(payload_rows < 1 .or. payload_rows > n) .or. size(payload, 2) < size(payload_rows)) then
+        if (err%ok()) call err%set(ERR_INTERNAL, 'migration: payload rows outside the '//str(n)// &
+                                   ' owned bodies, or more rows than payloads')
+        sending = .false.
       end if
     end if
     n_extra = n_version + n_payload
     allocate (extra(n_version, n), slot(n), arrived(n_payload, 16))
     extra = 0
     slot = 0
-    if (n_payload > 0 .and. sending) then
-      if (present(payload_rows)) then
-        slot(payload_rows) = [(k, k=1, size(payload_rows))]
-      else
-        slot = [(k, k=1, n)]
-      end if
-    end if
+    if (n_payload > 0 .and. sending) slot(payload_rows) = [(k, k=1, size(payload_rows))]
     n_arrived = 0
     if (present(versions)) then
       k = 0
@@ -268,20 +256,6 @@ contains
           message_extra(:, k) = payload(:, slot(payload_rows(k)))
         else
           message_extra(:, k) = arrived(:, -slot(payload_rows(k)))
-        end if
-      end do
-      call move_alloc(message_extra, payload)
-    else if (present(payload)) then
-      ! (one gather, the only copy of every record)
-      if (allocated(message_extra)) deallocate (message_extra)
-      allocate (message_extra(n_payload, n))
-      do k = 1, n
-        if (slot(k) > 0) then
-          message_extra(:, k) = payload(:, slot(k))
-        else if (slot(k) < 0) then
-          message_extra(:, k) = arrived(:, -slot(k))
-        else
-          message_extra(:, k) = 0
         end if
       end do
       call move_alloc(message_extra, payload)

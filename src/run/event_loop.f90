@@ -198,7 +198,7 @@ module event_loop
     real(dp), allocatable :: change_log_time(:)
     integer(i8), allocatable :: change_log_words(:, :)
     !> An undo journal of the per-body rows (version, changes, state_time, expiry,
-    !> region_x, island_of, released_at, first_change, path_lo, path_hi: ROW_WORDS words) for
+    !> region_x, island_of, released_at, first_change, path_lo, path_hi: LOOP_ROW_WORDS words) for
     !> a cross-rank window's save (copy_loop): the copy then carries none of them, nor the
     !> scratch marks (8 MB a window for a rank of a 100,000-sphere gas). touch_row keeps a
     !> row before its first change. (Allocatable: the copy does not carry it either.)
@@ -1038,16 +1038,6 @@ contains
     hi = hi + 1.0e-12_dp*(1.0_dp + abs(hi))
   end subroutine sweep_segment
 
-  !> A cross-rank window's save (restoring false: dst, the saved copy, from src, the live
-  !> loop) and restore (restoring true: dst, the live loop, from src, the saved copy). What
-  !> is large and changes little in a window is not copied but kept by undo journals that the
-  !> save starts in the live loop and the restore rolls back: the pair store (slots,
-  !> certificates, lists: 43 MB for 50,000 spheres), the pair and body queues, and the cell
-  !> grid's box table (keys, slots in use, lists: a 4-million-slot table for 50,000 spheres;
-  !> its restore takes the bodies placed since the save out of the live table and puts them
-  !> back at their restored box ranges, cell_grid restore_prepare, restore_finish). Every
-  !> other component is copied (intrinsic assignment). The saved copy holds no pairs and no
-  !> queues: it is only ever restored from. Journals stop at the window's end (stop_journal).
   !> While a window's save journals (row_journal): body i's per-body row is about to change;
   !> the first time since the save, it is kept as it is now.
   subroutine touch_row(self, i)
@@ -1132,6 +1122,18 @@ contains
     if (allocated(from%row_journal)) call move_alloc(from%row_journal, to%row_journal)
   end subroutine move_rows
 
+  !> A cross-rank window's save (restoring false: dst, the saved copy, from src, the live
+  !> loop) and restore (restoring true: dst, the live loop, from src, the saved copy). What
+  !> is large and changes little in a window is not copied but kept by undo journals that the
+  !> save starts in the live loop and the restore rolls back: the pair store (slots,
+  !> certificates, lists: 43 MB for 50,000 spheres), the pair and body queues, and the cell
+  !> grid's box table (keys, slots in use, lists: a 4-million-slot table for 50,000 spheres;
+  !> its restore takes the bodies placed since the save out of the live table and puts them
+  !> back at their restored box ranges, cell_grid restore_prepare, restore_finish, and with
+  !> them their rows), and the loop's per-body rows (touch_row, roll_back_rows; the scratch
+  !> marks are cleared instead). Every other component is copied (intrinsic assignment). The
+  !> saved copy holds no pairs, queues or rows: it is only ever restored from. Journals stop
+  !> at the window's end (stop_journal).
   subroutine copy_loop(dst, src, restoring)
     type(event_loop_t), intent(inout) :: dst
     type(event_loop_t), intent(inout) :: src

@@ -133,16 +133,17 @@ contains
       else if (si%kind == SHAPE_SPHERE) then
         call sphere_mesh_distance(bodies%x(:, i), si%radius, sj%tree, bodies%x(:, j), bodies%q(:, j), d)
         overlap = d%distance <= 0.0_dp
-        if (.not. overlap) overlap = winding_number(sj%tree, quat_rotate_inverse(bodies%q(:, j), bodies%x(:, i) - bodies%x(:, j))) > 0.5_dp
+        if (.not. overlap) overlap = winding_number(sj%tree, quat_rotate_inverse(bodies%q(:, j), &
+                                                                                  bodies%x(:, i) - bodies%x(:, j))) > 0.5_dp
       else if (sj%kind == SHAPE_SPHERE) then
         call sphere_mesh_distance(bodies%x(:, j), sj%radius, si%tree, bodies%x(:, i), bodies%q(:, i), d)
         overlap = d%distance <= 0.0_dp
-        if (.not. overlap) overlap = winding_number(si%tree, quat_rotate_inverse(bodies%q(:, i), bodies%x(:, j) - bodies%x(:, i))) > 0.5_dp
+        if (.not. overlap) overlap = winding_number(si%tree, quat_rotate_inverse(bodies%q(:, i), &
+                                                                                  bodies%x(:, j) - bodies%x(:, i))) > 0.5_dp
       else
         overlap = bodies_overlap(si%tree, bodies%x(:, i), bodies%q(:, i), sj%tree, bodies%x(:, j), bodies%q(:, j))
       end if
     end associate
   end function pair_overlaps
-
 
 end module overlap_check

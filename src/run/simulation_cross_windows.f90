@@ -324,10 +324,10 @@ contains
     integer, allocatable, intent(out) :: owner(:)
     logical, allocatable, intent(out) :: frontier(:)
     type(error_t), intent(inout) :: err
-    integer(i8), allocatable :: payload(:, :), sent(:, :), received(:, :), words(:, :), held(:, :), versions(:)
+    integer(i8), allocatable :: sent(:, :), received(:, :), words(:, :), held(:, :), versions(:)
     integer(i8), allocatable :: old_sorted(:, :), old_local(:), old_owner(:), ghost_versions(:)
     integer(i8), allocatable :: zeros(:)
-    integer, allocatable :: rows(:), order(:), new_index(:), old_order(:), halo_rows(:), leavers(:)
+    integer, allocatable :: rows(:), order(:), new_index(:), old_order(:), halo_rows(:)
     integer :: n_words, i, k, n_owned, n_halo, mid, n_old_owned, n_old_ghosts, r
     logical :: rebuilt, in_place
     ! the last window's ghosts: a ghost that comes again with its owner's same version (the
@@ -355,19 +355,7 @@ contains
       allocate (new_index(self%bodies%n_owned))
       new_index = [(i, i=1, self%bodies%n_owned)]
     else
-      ! only the bodies that leave carry their flight records; the others' move to their new
-      ! rows in place (free_flight remap), and the arrivals' are set from what came
-      leavers = pack([(i, i=1, n_old_owned)], [(self%dom%owner_of(self%bodies%x(:, i)) /= self%dom%rank, &
-                                                 i=1, n_old_owned)])
-      call self%propagator%pack_anchors(0, payload, leavers)
-      call migrate_bodies(par, self%dom, self%bodies, err, versions=versions, new_index=new_index, &
-                          stats=self%migration, payload=payload, payload_rows=leavers)
-      if (err%ok()) then
-        call self%propagator%remap(new_index(1:n_old_owned), self%bodies%n_owned)
-        do k = 1, size(leavers)
-          call self%propagator%set_record(leavers(k), payload(:, k))
-        end do
-      end if
+      call migrate_owned(self, par, new_index, err, versions)
     end if
     self%in_own_bricks = .false.
     if (par%any(err%failed())) then

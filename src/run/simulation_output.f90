@@ -159,10 +159,13 @@ contains
     ! waits in collectives).
     load(:, 1) = real(self%bodies%n_owned, dp)
     load(:, 2) = real(self%collisions%stats%events + self%events%stats%island_steps, dp)
-    load(:, 3) = self%detection_wall + self%integration_wall + self%contact_pass_wall + self%resolve_wall
-    ! (the local loop times its phases itself: before, only its outputs' evaluations counted)
-    if (self%local) load(:, 3) = self%events%stats%wall_islands + self%events%stats%wall_impacts + &
-                                 self%events%stats%wall_detection + self%integration_wall
+    if (self%local) then
+      ! (the local loop times its phases itself)
+      load(:, 3) = self%events%stats%wall_islands + self%events%stats%wall_impacts + self%events%stats%wall_detection + &
+                   self%integration_wall
+    else
+      load(:, 3) = self%detection_wall + self%integration_wall + self%contact_pass_wall + self%resolve_wall
+    end if
     load(1, :) = [par%min(load(1, 1)), par%min(load(1, 2)), par%min(load(1, 3))]
     load(2, :) = [par%sum(load(2, 1)), par%sum(load(2, 2)), par%sum(load(2, 3))]/real(par%n_ranks, dp)
     load(3, :) = [par%max(load(3, 1)), par%max(load(3, 2)), par%max(load(3, 3))]

@@ -107,8 +107,25 @@ contains
     window = par%min(window)
   end procedure motion_window
 
+  module procedure migrate_owned
+    integer(i8), allocatable :: payload(:, :)
+    integer, allocatable :: leavers(:)
+    integer :: i, k, n_old_owned
+    n_old_owned = self%bodies%n_owned
+    leavers = pack([(i, i=1, n_old_owned)], [(self%dom%owner_of(self%bodies%x(:, i)) /= self%dom%rank, &
+                                               i=1, n_old_owned)])
+    call self%propagator%pack_anchors(0, payload, leavers)
+    call migrate_bodies(par, self%dom, self%bodies, err, versions=versions, new_index=new_index, &
+                        stats=self%migration, payload=payload, payload_rows=leavers)
+    if (err%failed()) return
+    call self%propagator%remap(new_index(1:n_old_owned), self%bodies%n_owned)
+    do k = 1, size(leavers)
+      call self%propagator%set_record(leavers(k), payload(:, k))
+    end do
+  end procedure migrate_owned
+
   module procedure end_window
-    integer(i8), allocatable :: payload(:, :), versions(:)
+    integer(i8), allocatable :: versions(:)
     integer, allocatable :: new_index(:)
     integer :: i
     logical :: rebuilt
@@ -117,20 +134,17 @@ contains
     clock = par%wtime()
     ! every body where it is now: it goes to the owner of its position at the window's end
     if (self%local) call self%events%synchronize(self%bodies, self%propagator, self%time)
-    call self%propagator%pack_anchors(self%bodies%n_owned, payload)
     ! (the trajectory versions travel with the bodies: the local loop keeps its certificates)
     if (self%local) then
       versions = self%events%version(1:self%bodies%n_owned)
-      call migrate_bodies(par, self%dom, self%bodies, err, versions=versions, new_index=new_index, &
-                          stats=self%migration, payload=payload)
+      call migrate_owned(self, par, new_index, err, versions)
     else
-      call migrate_bodies(par, self%dom, self%bodies, err, stats=self%migration, payload=payload)
+      call migrate_owned(self, par, new_index, err)
     end if
     if (par%any(err%failed())) then
       if (err%ok()) call err%set(ERR_INTERNAL, 'migration failed on another rank')
       return
     end if
-    call self%propagator%unpack_anchors(payload, self%deck%integrator)
     self%windows = self%windows + 1
     if (self%local) then
       loop_clock = par%wtime()

@@ -134,13 +134,8 @@ contains
       row = payload_rows(k)
       payload(:, k) = [ieor(my_versions(row), 12345_i8), local%gid(row), not(my_versions(row))]
     end do
-    if (leavers_only) then
-      call migrate_bodies(par, dom, local, err, my_versions, new_index, stats, payload=payload, &
-                          payload_rows=payload_rows)
-    else
-      call migrate_bodies(par, dom, local, err, my_versions, new_index, stats, payload=payload)
-      payload_rows = [(k, k=1, local%n_owned)]
-    end if
+    call migrate_bodies(par, dom, local, err, my_versions, new_index, stats, payload=payload, &
+                        payload_rows=payload_rows)
     call check(err%ok(), what//': migration succeeds')
     if (err%failed()) write (*, '(a)') '  '//err%message
     call check(.not. par%any(err%failed()), what//': no rank failed')
@@ -178,10 +173,14 @@ contains
         if (my_versions(k) /= versions(row)) bad_versions = bad_versions + 1
       end if
     end do
-    ! (with payload_rows: exactly the rows that arrived carry one)
-    if (leavers_only) call check(all(payload_rows == pack([(k, k=1, local%n_owned)], &
-                                                          [(.not. any(new_index == k), k=1, local%n_owned)])), &
-                                 what//': the payload rows are those that arrived')
+    ! (exactly the rows that arrived carry one, or every row)
+    if (leavers_only) then
+      call check(all(payload_rows == pack([(k, k=1, local%n_owned)], [(.not. any(new_index == k), k=1, local%n_owned)])), &
+                 what//': the payload rows are those that arrived')
+    else
+      call check(size(payload_rows) == local%n_owned .and. all(payload_rows == [(k, k=1, local%n_owned)]), &
+                 what//': every owned row carries its payload')
+    end if
     do m = 1, min(size(payload_rows), size(payload, 2))
       k = payload_rows(m)
       row = row_of_gid(moved, local%gid(k))
