@@ -12,7 +12,8 @@
 !> pool the boxes' lists live in: 300 bodies crowding into few boxes and spreading out again
 !> (lists outgrowing their rooms, rooms left behind until the pool is compacted), then a
 !> renumbering (remap_bodies: some bodies leave, the rest are renamed in the lists): the
-!> grid answers as one built afresh every time.
+!> grid answers as one built afresh every time. Each case runs again with a dense block of
+!> boxes (init dense_lower, dense_upper) over part of the space: the answers are the same.
 program test_cell_grid
   use kinds, only: dp, i8
   use string_utils, only: str
@@ -69,16 +70,23 @@ program test_cell_grid
   call grid%place(4, [2.0_dp**61*h, 0.0_dp, 0.0_dp], [2.0_dp**61*h + h, h, h], err)
   call check(err%failed(), 'a region 2^61 boxes out is refused')
   call grid%free()
-  call restore_without_table()
-  call wander_and_rehash_in_place()
-  call crowd_and_compact()
+  ! each case twice: the live grid with the hash table alone, then with a dense block over
+  ! part of the space (the bodies move in and out of it); the grid built afresh to compare
+  ! with has the hash table alone, so the block must not change a single answer
+  call restore_without_table(.false.)
+  call restore_without_table(.true.)
+  call wander_and_rehash_in_place(.false.)
+  call wander_and_rehash_in_place(.true.)
+  call crowd_and_compact(.false.)
+  call crowd_and_compact(.true.)
   call test_finish()
 
 contains
 
   !> The grid journals from the save on: the copy holds neither the box table nor the
   !> per-body rows, and the restore takes the moved bodies' rows from the journal.
-  subroutine restore_without_table()
+  subroutine restore_without_table(dense)
+    logical, intent(in) :: dense
     integer, parameter :: n = 400
     type(cell_grid_t) :: live, saved, fresh
     type(cell_lists_t) :: live_lists, saved_lists
@@ -88,7 +96,7 @@ contains
     logical :: placed(n)
     integer :: i, k, bad
     call rng%init(7)
-    call live%init(1.0_dp, n, err, max_span=4)
+    call init_live(live, n, dense, 10.0_dp)
     placed = .false.
     do i = 1, n
       if (mod(i, 7) == 0) cycle          ! some never placed
@@ -153,7 +161,8 @@ contains
                str(sum(live%cell_n, mask=live%slot_used))//' and '//str(sum(fresh%cell_n, mask=fresh%slot_used))//')')
   end subroutine restore_without_table
 
-  subroutine wander_and_rehash_in_place()
+  subroutine wander_and_rehash_in_place(dense)
+    logical, intent(in) :: dense
     integer, parameter :: n = 64
     type(cell_grid_t) :: live, fresh
     type(error_t) :: err
@@ -161,7 +170,7 @@ contains
     real(dp) :: c(3, n)
     integer :: i, step, n_a, bad, size_before, in_place
     call rng%init(11)
-    call live%init(1.0_dp, n, err, max_span=4)
+    call init_live(live, n, dense, 20.0_dp)
     do i = 1, n
       c(:, i) = [rng%uniform(), rng%uniform(), rng%uniform()]*6.0_dp
       call live%place(i, c(:, i) - 0.4_dp, c(:, i) + 0.4_dp, err)
@@ -190,7 +199,8 @@ contains
                str(bad)//')')
   end subroutine wander_and_rehash_in_place
 
-  subroutine crowd_and_compact()
+  subroutine crowd_and_compact(dense)
+    logical, intent(in) :: dense
     integer, parameter :: n = 300
     type(cell_grid_t) :: live, fresh
     type(error_t) :: err
@@ -199,7 +209,7 @@ contains
     integer :: i, round, bad, compactions, top_before, max_list, new_index(n), k
     logical :: kept(n)
     call rng%init(23)
-    call live%init(1.0_dp, n, err, max_span=4)
+    call init_live(live, n, dense, 10.0_dp)
     bad = 0
     compactions = 0
     max_list = 0
@@ -246,6 +256,25 @@ contains
     call check(bad == 0, 'renumbered in its lists, the grid answers as one built afresh (queries differing: '// &
                str(bad)//')')
   end subroutine crowd_and_compact
+
+  !> The grid under test: boxes of 1 m, the hash table alone or (dense) with a dense block
+  !> over [0, edge)^3, checked to be taken.
+  subroutine init_live(live, n, dense, edge)
+    type(cell_grid_t), intent(inout) :: live
+    integer, intent(in) :: n
+    logical, intent(in) :: dense
+    real(dp), intent(in) :: edge
+    type(error_t) :: err
+    if (dense) then
+      call live%init(1.0_dp, n, err, max_span=4, dense_lower=[0.0_dp, 0.0_dp, 0.0_dp], &
+                     dense_upper=[1.0_dp, 1.0_dp, 1.0_dp]*(edge - 0.5_dp), max_dense=nint(edge)**3)
+      call check(live%n_dense == nint(edge)**3, 'the dense block holds '//str(nint(edge)**3)//' boxes ('// &
+                 str(live%n_dense)//')')
+    else
+      call live%init(1.0_dp, n, err, max_span=4)
+    end if
+    call check(.not. err%failed(), 'grid made')
+  end subroutine init_live
 
   !> How many of the bodies 1..n with included(i) get other candidates from live than from fresh.
   integer function differing_queries(live, fresh, n, included) result(bad)
