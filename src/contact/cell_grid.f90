@@ -40,7 +40,9 @@ module cell_grid
     integer :: max_span = 4                     !< larger regions are not listed in boxes
     logical, allocatable :: placed(:)           !< per body
     logical, allocatable :: large(:)            !< placed outside the boxes
-    real(dp), allocatable :: lower(:, :), upper(:, :)   !< (3, body) region [m]
+    !> (6, body) region [m]: lower corner (1:3), upper (4:6), side by side (a candidate's
+    !> overlap test reads both: one cache miss, not two)
+    real(dp), allocatable :: region(:, :)
     integer(i8), allocatable :: lo(:, :), hi(:, :)      !< (3, body) box range of the region
     !> Slots 1..n_dense: the dense block's boxes (dense_lo + (0..dense_n - 1), x fastest),
     !> always in use; slots n_dense + 1 .. n_dense + table_size: the hash table.
@@ -50,13 +52,15 @@ module cell_grid
     integer :: n_used = 0                       !< hash slots holding a box (possibly empty)
     integer(i8), allocatable :: slot_key(:, :)  !< (3, slot) (hash slots only)
     logical, allocatable :: slot_used(:)
-    !> Each box's list of bodies: cell_n(slot) ids at pool(cell_at(slot) + 1 : ...), room
-    !> for cell_cap(slot). The lists live in one pool instead of an allocatable per box (a
+    !> Each box's list of bodies: list(LIST_N, slot) ids at pool(list(LIST_AT, slot) + 1 :
+    !> ...), room for list(LIST_CAP, slot), the three side by side (one cache miss a box
+    !> where three arrays made three: the loads of a box's count were most of inserting).
+    !> The lists live in one pool instead of an allocatable per box (a
     !> descriptor of 64 bytes a slot and a malloc a list: 800 MB and 1.6 s of page faults
     !> for the table of 50,000 spheres with their ghosts): a list that outgrows its room
     !> moves to the pool's top with twice the room, and the pool is compacted when more
     !> than half of it is rooms no list uses.
-    integer, allocatable :: cell_n(:), cell_at(:), cell_cap(:)
+    integer, allocatable :: list(:, :)          !< (3, slot)
     integer, allocatable :: pool(:)
     integer :: pool_top = 0                     !< pool entries handed out (rooms, used or not)
     integer :: pool_live = 0                    !< of them, rooms of lists in the table
@@ -98,11 +102,11 @@ module cell_grid
   !> restore_prepare and restore_finish.
   type :: cell_lists_t
     private
-    integer, allocatable :: cell_n(:), cell_at(:), cell_cap(:), pool(:)
+    integer, allocatable :: list(:, :), pool(:)
     integer(i8), allocatable :: slot_key(:, :)
     logical, allocatable :: slot_used(:)
     logical, allocatable :: placed(:), large(:), touched(:)
-    real(dp), allocatable :: lower(:, :), upper(:, :)
+    real(dp), allocatable :: region(:, :)
     integer(i8), allocatable :: lo(:, :), hi(:, :), touched_rows(:, :)
     integer, allocatable :: mark(:)
     integer :: table_size = 0, n_used = 0, pool_top = 0, pool_live = 0
@@ -111,6 +115,9 @@ module cell_grid
   end type cell_lists_t
 
   integer, parameter :: first_room = 4          !< room of a new box's list
+  !> rows of cell_grid_t list: a box's count of bodies, where its list starts in the pool
+  !> (0-based), its room there
+  integer, parameter, public :: LIST_N = 1, LIST_AT = 2, LIST_CAP = 3
   integer, parameter :: ROW_WORDS = 14          !< a body's row in touched_rows
 
 contains
@@ -136,7 +143,7 @@ contains
     self%h = box_size
     self%inv_h = 1.0_dp/box_size
     if (present(max_span)) self%max_span = max(1, max_span)
-    allocate (self%placed(n_bodies), self%large(n_bodies), self%lower(3, n_bodies), self%upper(3, n_bodies), &
+    allocate (self%placed(n_bodies), self%large(n_bodies), self%region(6, n_bodies), &
               self%lo(3, n_bodies), self%hi(3, n_bodies), self%mark(n_bodies))
     self%placed = .false.
     self%large = .false.
@@ -157,13 +164,10 @@ contains
     end if
     self%table_size = 1024
     n_slots = self%n_dense + self%table_size
-    allocate (self%slot_key(3, n_slots), self%slot_used(n_slots), self%cell_n(n_slots), &
-              self%cell_at(n_slots), self%cell_cap(n_slots), self%pool(4*n_slots))
+    allocate (self%slot_key(3, n_slots), self%slot_used(n_slots), self%list(3, n_slots), self%pool(4*n_slots))
     self%slot_used = .false.
     self%slot_used(1:self%n_dense) = .true.
-    self%cell_n(1:self%n_dense) = 0
-    self%cell_at(1:self%n_dense) = 0
-    self%cell_cap(1:self%n_dense) = 0
+    self%list(:, 1:self%n_dense) = 0
     self%n_used = 0
     self%pool_top = 0
     self%pool_live = 0
@@ -173,10 +177,10 @@ contains
 
   subroutine cells_free(self)
     class(cell_grid_t), intent(inout) :: self
-    if (allocated(self%placed)) deallocate (self%placed, self%large, self%lower, self%upper, self%lo, self%hi, &
+    if (allocated(self%placed)) deallocate (self%placed, self%large, self%region, self%lo, self%hi, &
                                             self%mark)
     if (allocated(self%slot_key)) deallocate (self%slot_key, self%slot_used)
-    if (allocated(self%cell_n)) deallocate (self%cell_n, self%cell_at, self%cell_cap)
+    if (allocated(self%list)) deallocate (self%list)
     if (allocated(self%pool)) deallocate (self%pool)
     self%pool_top = 0
     self%pool_live = 0
@@ -208,17 +212,14 @@ contains
   subroutine cells_swap_table(self, lists)
     class(cell_grid_t), intent(inout) :: self
     type(cell_lists_t), intent(inout) :: lists
-    call swap_ints(self%cell_n, lists%cell_n)
-    call swap_ints(self%cell_at, lists%cell_at)
-    call swap_ints(self%cell_cap, lists%cell_cap)
+    call swap_lists(self%list, lists%list)
     call swap_ints(self%pool, lists%pool)
     call swap_ints(self%touched_ids, lists%touched_ids)
     call swap_ints(self%mark, lists%mark)
     call swap_logicals(self%placed, lists%placed)
     call swap_logicals(self%large, lists%large)
     call swap_logicals(self%touched, lists%touched)
-    call swap_reals(self%lower, lists%lower)
-    call swap_reals(self%upper, lists%upper)
+    call swap_reals(self%region, lists%region)
     call swap_keys(self%lo, lists%lo)
     call swap_keys(self%hi, lists%hi)
     call swap_keys(self%touched_rows, lists%touched_rows)
@@ -251,6 +252,13 @@ contains
       call move_alloc(a, b)
       call move_alloc(c, a)
     end subroutine swap_keys
+    subroutine swap_lists(a, b)
+      integer, allocatable, intent(inout) :: a(:, :), b(:, :)
+      integer, allocatable :: c(:, :)
+      call move_alloc(b, c)
+      call move_alloc(a, b)
+      call move_alloc(c, a)
+    end subroutine swap_lists
     subroutine swap_ints(a, b)
       integer, allocatable, intent(inout) :: a(:), b(:)
       integer, allocatable :: c(:)
@@ -306,9 +314,7 @@ contains
       if (allocated(self%slot_used)) then
         self%slot_used = .false.
         self%slot_used(1:self%n_dense) = .true.
-        self%cell_n(1:self%n_dense) = 0
-        self%cell_at(1:self%n_dense) = 0
-        self%cell_cap(1:self%n_dense) = 0
+        self%list(:, 1:self%n_dense) = 0
       end if
       self%n_used = 0
       self%pool_top = 0
@@ -355,8 +361,7 @@ contains
       integer(i8), intent(in) :: words(ROW_WORDS)
       self%placed(i) = words(1) /= 0
       self%large(i) = words(2) /= 0
-      self%lower(:, i) = transfer(words(3:5), self%lower(:, i))
-      self%upper(:, i) = transfer(words(6:8), self%upper(:, i))
+      self%region(:, i) = transfer(words(3:8), self%region(:, i))
       self%lo(:, i) = words(9:11)
       self%hi(:, i) = words(12:14)
     end subroutine unpack_row
@@ -407,8 +412,7 @@ contains
     associate (words => self%touched_rows(:, self%n_touched))
       words(1) = merge(1_i8, 0_i8, self%placed(i))
       words(2) = merge(1_i8, 0_i8, self%large(i))
-      words(3:5) = transfer(self%lower(:, i), mold, 3)
-      words(6:8) = transfer(self%upper(:, i), mold, 3)
+      words(3:8) = transfer(self%region(:, i), mold, 6)
       words(9:11) = self%lo(:, i)
       words(12:14) = self%hi(:, i)
     end associate
@@ -419,20 +423,20 @@ contains
     class(cell_grid_t), intent(inout) :: self
     integer, intent(in) :: n
     logical, allocatable :: l1(:), l2(:)
-    real(dp), allocatable :: r1(:, :), r2(:, :)
+    real(dp), allocatable :: r1(:, :)
     integer(i8), allocatable :: k1(:, :), k2(:, :)
     integer, allocatable :: m(:)
     integer :: old
     old = size(self%placed)
     if (old >= n) return
-    allocate (l1(n), l2(n), r1(3, n), r2(3, n), k1(3, n), k2(3, n), m(n))
+    allocate (l1(n), l2(n), r1(6, n), k1(3, n), k2(3, n), m(n))
     l1 = .false.; l2 = .false.; m = 0
     l1(1:old) = self%placed; l2(1:old) = self%large
-    r1(:, 1:old) = self%lower; r2(:, 1:old) = self%upper
+    r1(:, 1:old) = self%region
     k1(:, 1:old) = self%lo; k2(:, 1:old) = self%hi
     m(1:old) = self%mark
     call move_alloc(l1, self%placed); call move_alloc(l2, self%large)
-    call move_alloc(r1, self%lower); call move_alloc(r2, self%upper)
+    call move_alloc(r1, self%region)
     call move_alloc(k1, self%lo); call move_alloc(k2, self%hi)
     call move_alloc(m, self%mark)
     if (allocated(self%touched)) then
@@ -452,7 +456,7 @@ contains
     integer, intent(in) :: new_index(:)
     integer, intent(in) :: n_bodies
     logical, allocatable :: placed(:), large(:)
-    real(dp), allocatable :: lower(:, :), upper(:, :)
+    real(dp), allocatable :: region(:, :)
     integer(i8), allocatable :: lo(:, :), hi(:, :)
     integer :: i, ni, s, k, kept
     ! bodies only appended (every old body keeps its number): the table stands as it is
@@ -460,12 +464,11 @@ contains
       call self%grow_bodies(n_bodies)
       return
     end if
-    allocate (placed(n_bodies), large(n_bodies), lower(3, n_bodies), upper(3, n_bodies), lo(3, n_bodies), &
+    allocate (placed(n_bodies), large(n_bodies), region(6, n_bodies), lo(3, n_bodies), &
               hi(3, n_bodies))
     placed = .false.
     large = .false.
-    lower = 0.0_dp
-    upper = 0.0_dp
+    region = 0.0_dp
     lo = 0
     hi = 0
     do i = 1, min(size(new_index), size(self%placed))
@@ -473,21 +476,20 @@ contains
       if (ni == 0) cycle
       placed(ni) = self%placed(i)
       large(ni) = self%large(i)
-      lower(:, ni) = self%lower(:, i)
-      upper(:, ni) = self%upper(:, i)
+      region(:, ni) = self%region(:, i)
       lo(:, ni) = self%lo(:, i)
       hi(:, ni) = self%hi(:, i)
     end do
     do s = 1, self%n_dense + self%table_size
       if (.not. self%slot_used(s)) cycle
       kept = 0
-      do k = self%cell_at(s) + 1, self%cell_at(s) + self%cell_n(s)
+      do k = self%list(LIST_AT, s) + 1, self%list(LIST_AT, s) + self%list(LIST_N, s)
         ni = renamed(self%pool(k))
         if (ni == 0) cycle
-        self%pool(self%cell_at(s) + kept + 1) = ni
+        self%pool(self%list(LIST_AT, s) + kept + 1) = ni
         kept = kept + 1
       end do
-      self%cell_n(s) = kept
+      self%list(LIST_N, s) = kept
     end do
     kept = 0
     do k = 1, self%n_large
@@ -499,8 +501,7 @@ contains
     self%n_large = kept
     call move_alloc(placed, self%placed)
     call move_alloc(large, self%large)
-    call move_alloc(lower, self%lower)
-    call move_alloc(upper, self%upper)
+    call move_alloc(region, self%region)
     call move_alloc(lo, self%lo)
     call move_alloc(hi, self%hi)
     deallocate (self%mark)
@@ -536,8 +537,8 @@ contains
       call err%set(ERR_NUMERIC, 'cell grid: a body is more than 2^60 boxes from the origin')
       return
     end if
-    self%lower(:, i) = lower
-    self%upper(:, i) = upper
+    self%region(1:3, i) = lower
+    self%region(4:6, i) = upper
     ! floor(..., kind=i8), not int(floor(...), i8): the default-kind floor overflows past
     ! 2^31 boxes (a 1e4 m body in 2e-6 m boxes), giving hi < lo, and the body would be
     ! listed nowhere (neither in boxes nor as large) and tunnelled through.
@@ -594,7 +595,8 @@ contains
   pure logical function cells_overlaps(self, i, j)
     class(cell_grid_t), intent(in) :: self
     integer, intent(in) :: i, j
-    cells_overlaps = all(self%lower(:, i) <= self%upper(:, j)) .and. all(self%lower(:, j) <= self%upper(:, i))
+    cells_overlaps = all(self%region(1:3, i) <= self%region(4:6, j)) .and. &
+                     all(self%region(1:3, j) <= self%region(4:6, i))
   end function cells_overlaps
 
   !> The placed bodies whose regions overlap body i's (i placed), into found(1:n_found), in
@@ -623,7 +625,7 @@ contains
           do a = self%lo(1, i), self%hi(1, i)
             s = find_slot(self, [a, b, c])
             if (s == 0) cycle
-            do k = self%cell_at(s) + 1, self%cell_at(s) + self%cell_n(s)
+            do k = self%list(LIST_AT, s) + 1, self%list(LIST_AT, s) + self%list(LIST_N, s)
               j = self%pool(k)
               if (self%mark(j) == self%mark_stamp) cycle
               self%mark(j) = self%mark_stamp
@@ -714,14 +716,14 @@ contains
       end do
       self%slot_used(s) = .true.
       self%slot_key(:, s) = key
-      self%cell_n(s) = 0
-      self%cell_cap(s) = 0
-      self%cell_at(s) = 0
+      self%list(LIST_N, s) = 0
+      self%list(LIST_CAP, s) = 0
+      self%list(LIST_AT, s) = 0
       self%n_used = self%n_used + 1
     end if
-    if (self%cell_n(s) == self%cell_cap(s)) call give_room(self, s, max(first_room, 2*self%cell_cap(s)))
-    self%cell_n(s) = self%cell_n(s) + 1
-    self%pool(self%cell_at(s) + self%cell_n(s)) = i
+    if (self%list(LIST_N, s) == self%list(LIST_CAP, s)) call give_room(self, s, max(first_room, 2*self%list(LIST_CAP, s)))
+    self%list(LIST_N, s) = self%list(LIST_N, s) + 1
+    self%pool(self%list(LIST_AT, s) + self%list(LIST_N, s)) = i
   end subroutine insert
 
   !> Box slot s's list moves to a room of cap entries at the pool's top (its ids kept).
@@ -731,11 +733,11 @@ contains
     integer :: at
     if (self%pool_top + cap > size(self%pool)) call make_room(self, cap)
     at = self%pool_top
-    self%pool(at + 1:at + self%cell_n(s)) = self%pool(self%cell_at(s) + 1:self%cell_at(s) + self%cell_n(s))
-    self%pool_live = self%pool_live - self%cell_cap(s) + cap
+    self%pool(at + 1:at + self%list(LIST_N, s)) = self%pool(self%list(LIST_AT, s) + 1:self%list(LIST_AT, s) + self%list(LIST_N, s))
+    self%pool_live = self%pool_live - self%list(LIST_CAP, s) + cap
     self%pool_top = at + cap
-    self%cell_at(s) = at
-    self%cell_cap(s) = cap
+    self%list(LIST_AT, s) = at
+    self%list(LIST_CAP, s) = cap
   end subroutine give_room
 
   !> Room for cap more entries at the pool's top: the pool compacted (every list of the
@@ -758,9 +760,9 @@ contains
       at = 0
       do s = 1, self%n_dense + self%table_size
         if (.not. self%slot_used(s)) cycle
-        packed(at + 1:at + self%cell_n(s)) = self%pool(self%cell_at(s) + 1:self%cell_at(s) + self%cell_n(s))
-        self%cell_at(s) = at
-        at = at + self%cell_cap(s)
+        packed(at + 1:at + self%list(LIST_N, s)) = self%pool(self%list(LIST_AT, s) + 1:self%list(LIST_AT, s) + self%list(LIST_N, s))
+        self%list(LIST_AT, s) = at
+        at = at + self%list(LIST_CAP, s)
       end do
       self%pool_top = at
       call move_alloc(packed, self%pool)
@@ -778,10 +780,10 @@ contains
     integer :: s, k
     s = find_slot(self, key)
     if (s == 0) return
-    do k = self%cell_at(s) + 1, self%cell_at(s) + self%cell_n(s)
+    do k = self%list(LIST_AT, s) + 1, self%list(LIST_AT, s) + self%list(LIST_N, s)
       if (self%pool(k) == i) then
-        self%pool(k) = self%pool(self%cell_at(s) + self%cell_n(s))
-        self%cell_n(s) = self%cell_n(s) - 1
+        self%pool(k) = self%pool(self%list(LIST_AT, s) + self%list(LIST_N, s))
+        self%list(LIST_N, s) = self%list(LIST_N, s) - 1
         return
       end if
     end do
@@ -796,14 +798,14 @@ contains
   subroutine rehash(self)
     type(cell_grid_t), intent(inout) :: self
     integer(i8), allocatable :: old_key(:, :)
-    integer, allocatable :: old_n(:), old_at(:), old_cap(:), keep_n(:), keep_at(:), keep_cap(:)
+    integer, allocatable :: old_n(:), old_at(:), old_cap(:), keep(:, :)
     integer :: s, t, m, occupied, new_size, nd
     ! (the dense block's slots, 1..nd, stay as they are)
     nd = self%n_dense
     occupied = 0
     do s = nd + 1, nd + self%table_size
       if (self%slot_used(s)) then
-        if (self%cell_n(s) > 0) occupied = occupied + 1
+        if (self%list(LIST_N, s) > 0) occupied = occupied + 1
       end if
     end do
     ! (at least 3 slots per occupied box: a third full at most after the rehash, 60% at the
@@ -818,27 +820,22 @@ contains
     m = 0
     do s = nd + 1, nd + self%table_size
       if (.not. self%slot_used(s)) cycle
-      if (self%cell_n(s) == 0) then
-        self%pool_live = self%pool_live - self%cell_cap(s)
+      if (self%list(LIST_N, s) == 0) then
+        self%pool_live = self%pool_live - self%list(LIST_CAP, s)
         cycle
       end if
       m = m + 1
       old_key(:, m) = self%slot_key(:, s)
-      old_n(m) = self%cell_n(s)
-      old_at(m) = self%cell_at(s)
-      old_cap(m) = self%cell_cap(s)
+      old_n(m) = self%list(LIST_N, s)
+      old_at(m) = self%list(LIST_AT, s)
+      old_cap(m) = self%list(LIST_CAP, s)
     end do
     if (new_size /= self%table_size) then
-      keep_n = self%cell_n(1:nd)
-      keep_at = self%cell_at(1:nd)
-      keep_cap = self%cell_cap(1:nd)
-      deallocate (self%slot_key, self%slot_used, self%cell_n, self%cell_at, self%cell_cap)
-      allocate (self%slot_key(3, nd + new_size), self%slot_used(nd + new_size), self%cell_n(nd + new_size), &
-                self%cell_at(nd + new_size), self%cell_cap(nd + new_size))
+      keep = self%list(:, 1:nd)
+      deallocate (self%slot_key, self%slot_used, self%list)
+      allocate (self%slot_key(3, nd + new_size), self%slot_used(nd + new_size), self%list(3, nd + new_size))
       self%slot_used(1:nd) = .true.
-      self%cell_n(1:nd) = keep_n
-      self%cell_at(1:nd) = keep_at
-      self%cell_cap(1:nd) = keep_cap
+      self%list(:, 1:nd) = keep
       self%table_size = new_size
     end if
     self%slot_used(nd + 1:) = .false.
@@ -851,9 +848,9 @@ contains
       end do
       self%slot_used(t) = .true.
       self%slot_key(:, t) = old_key(:, m)
-      self%cell_n(t) = old_n(m)
-      self%cell_at(t) = old_at(m)
-      self%cell_cap(t) = old_cap(m)
+      self%list(LIST_N, t) = old_n(m)
+      self%list(LIST_AT, t) = old_at(m)
+      self%list(LIST_CAP, t) = old_cap(m)
       self%n_used = self%n_used + 1
     end do
   end subroutine rehash

@@ -18,7 +18,7 @@ program test_cell_grid
   use kinds, only: dp, i8
   use string_utils, only: str
   use error_status, only: error_t
-  use cell_grid, only: cell_grid_t, cell_lists_t
+  use cell_grid, only: cell_grid_t, cell_lists_t, LIST_N
   use random_stream, only: random_stream_t
   use assertions, only: check, test_finish
   implicit none
@@ -114,7 +114,7 @@ contains
     saved = live
     call live%swap_table(live_lists)
     call saved%swap_table(saved_lists)
-    call check(.not. allocated(saved%slot_key) .and. .not. allocated(saved%lower), &
+    call check(.not. allocated(saved%slot_key) .and. .not. allocated(saved%region), &
                'the saved copy holds no box table and no per-body rows')
     ! the live grid goes on: moves far away (new boxes, a rehash) and removals
     do i = 1, n, 3
@@ -156,9 +156,9 @@ contains
                '(queries differing: '//str(bad)//')')
     ! (stale entries would not show in the answers, which test the regions again, but the
     ! lists would only grow: the boxes list exactly what a fresh grid's do)
-    call check(sum(live%cell_n, mask=live%slot_used) == sum(fresh%cell_n, mask=fresh%slot_used), &
+    call check(sum(live%list(LIST_N, :), mask=live%slot_used) == sum(fresh%list(LIST_N, :), mask=fresh%slot_used), &
                'the restored lists hold as many entries as a fresh grid''s ('// &
-               str(sum(live%cell_n, mask=live%slot_used))//' and '//str(sum(fresh%cell_n, mask=fresh%slot_used))//')')
+               str(sum(live%list(LIST_N, :), mask=live%slot_used))//' and '//str(sum(fresh%list(LIST_N, :), mask=fresh%slot_used))//')')
   end subroutine restore_without_table
 
   subroutine wander_and_rehash_in_place(dense)
@@ -223,7 +223,7 @@ contains
         call live%place(i, c(:, i) - 0.3_dp, c(:, i) + 0.3_dp, err)
         if (live%pool_top < top_before) compactions = compactions + 1
       end do
-      max_list = max(max_list, maxval(live%cell_n, mask=live%slot_used))
+      max_list = max(max_list, maxval(live%list(LIST_N, :), mask=live%slot_used))
       call fresh%init(1.0_dp, n, err, max_span=4)
       do i = 1, n
         call fresh%place(i, c(:, i) - 0.3_dp, c(:, i) + 0.3_dp, err)

@@ -495,7 +495,7 @@ contains
     j = findloc(old_of, 0, 1)
     if (j > 0) then
       i = findloc(new_index > 0, .true., 1)
-      call g%place(j, g%lower(:, new_index(i)), g%upper(:, new_index(i)), err)
+      call g%place(j, g%region(1:3, new_index(i)), g%region(4:6, new_index(i)), err)
       call g%query(j, found, n_found, n_new)
       call check(any(found(1:n_found) == new_index(i)), 'grid renumbered: an arrival placed finds its neighbours')
     end if
