@@ -1247,7 +1247,7 @@ contains
   !> The loop's grid for n bodies, with a dense block (cell_grid) over where the moving
   !> bodies are now, their regions grown by dense_rings boxes (a rank's ghosts arrive within
   !> two rings of bricks of about three grid boxes), if it has at most dense_per_body boxes
-  !> a body: a gas at 5% solid fraction takes about 12 a body on one rank and 20 on each of
+  !> a body: a gas at 5% solid fraction takes about 17 a body on one rank and 20 on each of
   !> two; a scene spread thinly (or a single body) keeps the hash table alone.
   subroutine init_cells(self, bodies, shapes, box_size, n, err)
     type(event_loop_t), intent(inout) :: self
