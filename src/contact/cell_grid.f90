@@ -133,7 +133,7 @@ contains
     integer, intent(in), optional :: max_span
     real(dp), intent(in), optional :: dense_lower(3), dense_upper(3)
     integer, intent(in), optional :: max_dense
-    real(dp) :: span(3)
+    integer(i8) :: block_lo(3), block_n(3)
     integer :: n_slots
     call self%free()
     if (.not. ieee_is_finite(box_size) .or. box_size <= 0.0_dp) then
@@ -154,11 +154,13 @@ contains
       if (all(ieee_is_finite(dense_lower)) .and. all(ieee_is_finite(dense_upper)) .and. &
           all(dense_upper >= dense_lower) .and. all(abs(dense_lower)*self%inv_h < MAX_BOX_COORD) .and. &
           all(abs(dense_upper)*self%inv_h < MAX_BOX_COORD)) then
-        span = real(floor(dense_upper*self%inv_h, kind=i8) - floor(dense_lower*self%inv_h, kind=i8) + 1, dp)
-        if (product(span) <= real(max_dense, dp)) then
-          self%dense_lo = floor(dense_lower*self%inv_h, kind=i8)
-          self%dense_n = floor(dense_upper*self%inv_h, kind=i8) - self%dense_lo + 1
-          self%n_dense = int(product(self%dense_n))
+        block_lo = floor(dense_lower*self%inv_h, kind=i8)
+        block_n = floor(dense_upper*self%inv_h, kind=i8) - block_lo + 1
+        ! (the product in reals: three counts up to 2^61 overflow int64)
+        if (product(real(block_n, dp)) <= real(max_dense, dp)) then
+          self%dense_lo = block_lo
+          self%dense_n = block_n
+          self%n_dense = int(product(block_n))
         end if
       end if
     end if
@@ -716,12 +718,11 @@ contains
       end do
       self%slot_used(s) = .true.
       self%slot_key(:, s) = key
-      self%list(LIST_N, s) = 0
-      self%list(LIST_CAP, s) = 0
-      self%list(LIST_AT, s) = 0
+      self%list(:, s) = 0
       self%n_used = self%n_used + 1
     end if
-    if (self%list(LIST_N, s) == self%list(LIST_CAP, s)) call give_room(self, s, max(first_room, 2*self%list(LIST_CAP, s)))
+    if (self%list(LIST_N, s) == self%list(LIST_CAP, s)) &
+      call give_room(self, s, max(first_room, 2*self%list(LIST_CAP, s)))
     self%list(LIST_N, s) = self%list(LIST_N, s) + 1
     self%pool(self%list(LIST_AT, s) + self%list(LIST_N, s)) = i
   end subroutine insert
@@ -730,10 +731,12 @@ contains
   subroutine give_room(self, s, cap)
     type(cell_grid_t), intent(inout) :: self
     integer, intent(in) :: s, cap
-    integer :: at
+    integer :: at, from, n
     if (self%pool_top + cap > size(self%pool)) call make_room(self, cap)
     at = self%pool_top
-    self%pool(at + 1:at + self%list(LIST_N, s)) = self%pool(self%list(LIST_AT, s) + 1:self%list(LIST_AT, s) + self%list(LIST_N, s))
+    from = self%list(LIST_AT, s)
+    n = self%list(LIST_N, s)
+    self%pool(at + 1:at + n) = self%pool(from + 1:from + n)
     self%pool_live = self%pool_live - self%list(LIST_CAP, s) + cap
     self%pool_top = at + cap
     self%list(LIST_AT, s) = at
@@ -747,7 +750,7 @@ contains
     type(cell_grid_t), intent(inout) :: self
     integer, intent(in) :: cap
     integer, allocatable :: packed(:)
-    integer :: s, at, new_size
+    integer :: s, at, new_size, from, n
     integer(i8) :: wanted
     ! (in 64 bits: twice the rooms passes 2^31 entries long before the pool's indices do)
     wanted = min(2_i8*(int(self%pool_live, i8) + cap), int(huge(0), i8))
@@ -760,7 +763,9 @@ contains
       at = 0
       do s = 1, self%n_dense + self%table_size
         if (.not. self%slot_used(s)) cycle
-        packed(at + 1:at + self%list(LIST_N, s)) = self%pool(self%list(LIST_AT, s) + 1:self%list(LIST_AT, s) + self%list(LIST_N, s))
+        from = self%list(LIST_AT, s)
+        n = self%list(LIST_N, s)
+        packed(at + 1:at + n) = self%pool(from + 1:from + n)
         self%list(LIST_AT, s) = at
         at = at + self%list(LIST_CAP, s)
       end do

@@ -158,7 +158,8 @@ contains
     ! lists would only grow: the boxes list exactly what a fresh grid's do)
     call check(sum(live%list(LIST_N, :), mask=live%slot_used) == sum(fresh%list(LIST_N, :), mask=fresh%slot_used), &
                'the restored lists hold as many entries as a fresh grid''s ('// &
-               str(sum(live%list(LIST_N, :), mask=live%slot_used))//' and '//str(sum(fresh%list(LIST_N, :), mask=fresh%slot_used))//')')
+               str(sum(live%list(LIST_N, :), mask=live%slot_used))//' and '// &
+               str(sum(fresh%list(LIST_N, :), mask=fresh%slot_used))//')')
   end subroutine restore_without_table
 
   subroutine wander_and_rehash_in_place(dense)
